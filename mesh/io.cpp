@@ -1,0 +1,553 @@
+#include "mesh/io.h"
+
+#include <algorithm>
+#include <bit>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <optional>
+#include <sstream>
+#include <string_view>
+#include <vector>
+
+#include <glm/geometric.hpp>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+
+namespace isoforge::mesh {
+
+namespace {
+
+std::string lowerExtension(const std::filesystem::path& p) {
+    std::string e = p.extension().string();
+    std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return std::tolower(c); });
+    return e;
+}
+
+std::string readWholeFile(const std::filesystem::path& path) {
+    std::error_code ec;
+    if (std::filesystem::is_directory(path, ec)) throw IoError(path.string() + ": is a directory, expected a mesh file");
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw IoError(path.string() + ": cannot open: " + std::strerror(errno));
+    std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (in.bad()) throw IoError(path.string() + ": read error");
+    return data;
+}
+
+// ---------------------------------------------------------------------------------------------
+// A cursor over text that knows its line and column, for error messages.
+class TextCursor {
+public:
+    TextCursor(std::string_view text, std::string file, std::size_t offset = 0, std::size_t line = 1)
+        : text_(text), file_(std::move(file)), pos_(offset), line_(line), lineStart_(offset) {}
+
+    [[noreturn]] void fail(const std::string& what) const {
+        throw IoError(file_ + ":" + std::to_string(line_) + ":" + std::to_string(pos_ - lineStart_ + 1) + ": " + what);
+    }
+    bool atEnd() const { return pos_ >= text_.size(); }
+    void skipSpaces() {  // within the line
+        while (pos_ < text_.size() && (text_[pos_] == ' ' || text_[pos_] == '\t' || text_[pos_] == '\r')) ++pos_;
+    }
+    void skipWhitespace() {  // across lines
+        while (pos_ < text_.size() && std::isspace(static_cast<unsigned char>(text_[pos_]))) {
+            if (text_[pos_] == '\n') newLine();
+            else ++pos_;
+        }
+    }
+    bool atLineEnd() {
+        skipSpaces();
+        return atEnd() || text_[pos_] == '\n' || text_[pos_] == '#';
+    }
+    void nextLine() {
+        while (pos_ < text_.size() && text_[pos_] != '\n') ++pos_;
+        if (pos_ < text_.size()) newLine();
+    }
+    std::string_view word() {
+        skipSpaces();
+        std::size_t b = pos_;
+        while (pos_ < text_.size() && !std::isspace(static_cast<unsigned char>(text_[pos_]))) ++pos_;
+        return text_.substr(b, pos_ - b);
+    }
+    template <class T>
+    T number(const char* what) {
+        skipSpaces();
+        if (atEnd() || text_[pos_] == '\n') fail(std::string("expected ") + what + ", found end of line");
+        const char* b = text_.data() + pos_;
+        const char* e = text_.data() + text_.size();
+        if (*b == '+') ++b;
+        T v{};
+        auto [p, ec] = std::from_chars(b, e, v);
+        if (ec != std::errc() || (p < e && !std::isspace(static_cast<unsigned char>(*p)) && *p != '/'))
+            fail(std::string("expected ") + what + ", found '" + std::string(word()) + "'");
+        if constexpr (std::is_floating_point_v<T>)
+            if (!std::isfinite(v)) fail(std::string("expected a finite ") + what);
+        pos_ = static_cast<std::size_t>(p - text_.data());
+        return v;
+    }
+    std::size_t position() const { return pos_; }
+    std::size_t line() const { return line_; }
+    char peek() const { return atEnd() ? '\0' : text_[pos_]; }
+    void advance() { ++pos_; }
+
+private:
+    void newLine() {
+        ++pos_;
+        ++line_;
+        lineStart_ = pos_;
+    }
+    std::string_view text_;
+    std::string file_;
+    std::size_t pos_, line_, lineStart_;
+};
+
+void triangulateFace(TriMesh& mesh, const std::vector<std::uint32_t>& face) {
+    for (std::size_t k = 1; k + 1 < face.size(); ++k) mesh.triangles.emplace_back(face[0], face[k], face[k + 1]);
+}
+
+// ---------------------------------------------------------------------------------------------
+// PLY
+enum class PlyType { Int8, UInt8, Int16, UInt16, Int32, UInt32, Float32, Float64 };
+
+std::optional<PlyType> plyType(std::string_view s) {
+    if (s == "char" || s == "int8") return PlyType::Int8;
+    if (s == "uchar" || s == "uint8") return PlyType::UInt8;
+    if (s == "short" || s == "int16") return PlyType::Int16;
+    if (s == "ushort" || s == "uint16") return PlyType::UInt16;
+    if (s == "int" || s == "int32") return PlyType::Int32;
+    if (s == "uint" || s == "uint32") return PlyType::UInt32;
+    if (s == "float" || s == "float32") return PlyType::Float32;
+    if (s == "double" || s == "float64") return PlyType::Float64;
+    return std::nullopt;
+}
+std::size_t plySize(PlyType t) {
+    switch (t) {
+        case PlyType::Int8: case PlyType::UInt8: return 1;
+        case PlyType::Int16: case PlyType::UInt16: return 2;
+        case PlyType::Int32: case PlyType::UInt32: case PlyType::Float32: return 4;
+        case PlyType::Float64: return 8;
+    }
+    return 0;
+}
+
+struct PlyProperty {
+    std::string name;
+    PlyType type = PlyType::Float32;
+    bool isList = false;
+    PlyType countType = PlyType::UInt8;
+};
+struct PlyElement {
+    std::string name;
+    std::uint64_t count = 0;
+    std::vector<PlyProperty> properties;
+    std::size_t headerLine = 0;
+};
+
+class BinaryReader {
+public:
+    BinaryReader(std::string_view data, std::size_t pos, bool bigEndian, std::string file)
+        : data_(data), pos_(pos), swap_(bigEndian != (std::endian::native == std::endian::big)), file_(std::move(file)) {}
+    double read(PlyType t, const char* what) {
+        std::size_t n = plySize(t);
+        if (pos_ + n > data_.size())
+            throw IoError(file_ + ": byte " + std::to_string(pos_) + ": file ends while reading " + what +
+                          " (truncated?)");
+        unsigned char b[8];
+        std::memcpy(b, data_.data() + pos_, n);
+        if (swap_) std::reverse(b, b + n);
+        pos_ += n;
+        switch (t) {
+            case PlyType::Int8: { std::int8_t v; std::memcpy(&v, b, 1); return v; }
+            case PlyType::UInt8: return b[0];
+            case PlyType::Int16: { std::int16_t v; std::memcpy(&v, b, 2); return v; }
+            case PlyType::UInt16: { std::uint16_t v; std::memcpy(&v, b, 2); return v; }
+            case PlyType::Int32: { std::int32_t v; std::memcpy(&v, b, 4); return v; }
+            case PlyType::UInt32: { std::uint32_t v; std::memcpy(&v, b, 4); return v; }
+            case PlyType::Float32: { float v; std::memcpy(&v, b, 4); return v; }
+            case PlyType::Float64: { double v; std::memcpy(&v, b, 8); return v; }
+        }
+        return 0;
+    }
+    std::size_t position() const { return pos_; }
+    std::size_t remaining() const { return data_.size() - pos_; }
+
+private:
+    std::string_view data_;
+    std::size_t pos_;
+    bool swap_;
+    std::string file_;
+};
+
+TriMesh readPly(const std::filesystem::path& path, const std::string& data) {
+    const std::string file = path.string();
+    TextCursor cur(data, file);
+    if (cur.word() != "ply") cur.fail("expected 'ply' magic at the start of the file");
+    cur.nextLine();
+    enum class Format { Ascii, BinaryLE, BinaryBE } format = Format::Ascii;
+    bool haveFormat = false;
+    std::vector<PlyElement> elements;
+    for (;;) {
+        if (cur.atEnd()) cur.fail("file ends inside the header: expected 'end_header'");
+        std::string_view kw = cur.word();
+        if (kw.empty()) { cur.nextLine(); continue; }
+        if (kw == "end_header") {
+            // The body starts right after this line's newline.
+            while (!cur.atEnd() && cur.peek() != '\n') cur.advance();
+            if (!cur.atEnd()) cur.advance();
+            break;
+        }
+        if (kw == "comment" || kw == "obj_info") { cur.nextLine(); continue; }
+        if (kw == "format") {
+            std::string_view f = cur.word();
+            if (f == "ascii") format = Format::Ascii;
+            else if (f == "binary_little_endian") format = Format::BinaryLE;
+            else if (f == "binary_big_endian") format = Format::BinaryBE;
+            else cur.fail("expected ascii, binary_little_endian or binary_big_endian, found '" + std::string(f) + "'");
+            haveFormat = true;
+        } else if (kw == "element") {
+            PlyElement e;
+            e.headerLine = cur.line();
+            e.name = std::string(cur.word());
+            if (e.name.empty()) cur.fail("expected an element name");
+            e.count = cur.number<std::uint64_t>("an element count");
+            elements.push_back(std::move(e));
+        } else if (kw == "property") {
+            if (elements.empty()) cur.fail("'property' before any 'element'");
+            PlyProperty p;
+            std::string_view t = cur.word();
+            if (t == "list") {
+                p.isList = true;
+                auto ct = plyType(cur.word());
+                if (!ct || *ct == PlyType::Float32 || *ct == PlyType::Float64) cur.fail("expected an integer list count type");
+                p.countType = *ct;
+                t = cur.word();
+            }
+            auto ty = plyType(t);
+            if (!ty) cur.fail("expected a property type (char uchar short ushort int uint float double), found '" + std::string(t) + "'");
+            p.type = *ty;
+            p.name = std::string(cur.word());
+            if (p.name.empty()) cur.fail("expected a property name");
+            elements.back().properties.push_back(std::move(p));
+        } else {
+            cur.fail("unexpected '" + std::string(kw) + "' in PLY header");
+        }
+        cur.nextLine();
+    }
+    if (!haveFormat) throw IoError(file + ": PLY header has no 'format' line");
+
+    TriMesh mesh;
+    const std::size_t bodyStart = cur.position();
+    const std::size_t bodyBytes = data.size() - bodyStart;
+    BinaryReader bin(data, bodyStart, format == Format::BinaryBE, file);
+    TextCursor text(data, file, bodyStart, cur.line());
+    std::vector<std::uint32_t> face;
+    bool haveFaces = false;
+
+    for (const PlyElement& e : elements) {
+        // Hostile counts: every element needs at least one byte (binary) or two characters (ASCII).
+        std::size_t minBytes = 0;
+        for (const auto& p : e.properties) minBytes += p.isList ? plySize(p.countType) : plySize(p.type);
+        if (format == Format::Ascii) minBytes = 2 * e.properties.size();
+        if (minBytes > 0 && e.count > bodyBytes / minBytes)
+            throw IoError(file + ":" + std::to_string(e.headerLine) + ": header declares " + std::to_string(e.count) +
+                          " " + e.name + " elements, but the file holds only " + std::to_string(bodyBytes) +
+                          " bytes of data");
+        const bool isVertex = e.name == "vertex";
+        const bool isFace = e.name == "face";
+        int ix = -1, iy = -1, iz = -1, inx = -1, iny = -1, inz = -1, iface = -1;
+        for (int k = 0; k < static_cast<int>(e.properties.size()); ++k) {
+            const std::string& n = e.properties[k].name;
+            if (isVertex && !e.properties[k].isList) {
+                if (n == "x") ix = k; else if (n == "y") iy = k; else if (n == "z") iz = k;
+                else if (n == "nx") inx = k; else if (n == "ny") iny = k; else if (n == "nz") inz = k;
+            }
+            if (isFace && e.properties[k].isList && (n == "vertex_indices" || n == "vertex_index")) iface = k;
+        }
+        if (isVertex) {
+            if (ix < 0 || iy < 0 || iz < 0)
+                throw IoError(file + ":" + std::to_string(e.headerLine) + ": vertex element lacks x, y or z");
+            mesh.positions.resize(e.count);
+            if (inx >= 0 && iny >= 0 && inz >= 0) mesh.normals.resize(e.count);
+        }
+        if (isFace) {
+            if (iface < 0)
+                throw IoError(file + ":" + std::to_string(e.headerLine) + ": face element lacks a vertex_indices list");
+            haveFaces = true;
+            mesh.triangles.reserve(e.count);
+        }
+        double values[64];
+        for (std::uint64_t i = 0; i < e.count; ++i) {
+            if (format == Format::Ascii) text.skipWhitespace();
+            for (int k = 0; k < static_cast<int>(e.properties.size()); ++k) {
+                const PlyProperty& p = e.properties[k];
+                const std::string what = e.name + " " + std::to_string(i) + " property '" + p.name + "'";
+                auto readValue = [&](PlyType t) -> double {
+                    if (format != Format::Ascii) return bin.read(t, what.c_str());
+                    if (text.atEnd()) text.fail("file ends while reading " + what + " (truncated?)");
+                    text.skipWhitespace();
+                    return text.number<double>(what.c_str());
+                };
+                if (!p.isList) {
+                    double v = readValue(p.type);
+                    if (k < 64) values[k] = v;
+                    continue;
+                }
+                double countValue = readValue(p.countType);
+                if (countValue < 0) throw IoError(file + ": negative list length in " + what);
+                auto count = static_cast<std::uint64_t>(countValue);
+                if (k == iface) face.clear();
+                for (std::uint64_t j = 0; j < count; ++j) {
+                    double v = readValue(p.type);
+                    if (k != iface) continue;
+                    if (v < 0 || v >= static_cast<double>(mesh.positions.size()) || v != std::floor(v)) {
+                        const std::string where = format == Format::Ascii
+                                                      ? ":" + std::to_string(text.line())
+                                                      : ": byte " + std::to_string(bin.position());
+                        throw IoError(file + where + ": " + e.name + " " + std::to_string(i) + " names vertex " +
+                                      std::to_string(static_cast<long long>(v)) + ", but there are " +
+                                      std::to_string(mesh.positions.size()) + " vertices");
+                    }
+                    face.push_back(static_cast<std::uint32_t>(v));
+                }
+            }
+            if (isVertex) {
+                mesh.positions[i] = glm::vec3(values[ix], values[iy], values[iz]);
+                if (!mesh.normals.empty()) mesh.normals[i] = glm::vec3(values[inx], values[iny], values[inz]);
+            } else if (isFace) {
+                triangulateFace(mesh, face);
+            }
+        }
+    }
+    if (!haveFaces) throw IoError(file + ": PLY file has no face element (point clouds are not meshes)");
+    return mesh;
+}
+
+void writePly(const std::filesystem::path& path, const TriMesh& mesh, bool ascii) {
+    AtomicFile out(path);
+    const bool normals = mesh.normals.size() == mesh.positions.size() && !mesh.normals.empty();
+    std::ostringstream h;
+    h << "ply\nformat " << (ascii ? "ascii" : "binary_little_endian") << " 1.0\ncomment made by isoforge\n"
+      << "element vertex " << mesh.positions.size() << "\nproperty float x\nproperty float y\nproperty float z\n";
+    if (normals) h << "property float nx\nproperty float ny\nproperty float nz\n";
+    h << "element face " << mesh.triangles.size() << "\nproperty list uchar int vertex_indices\nend_header\n";
+    out.write(h.str());
+    if (ascii) {
+        char buf[256];
+        for (std::size_t i = 0; i < mesh.positions.size(); ++i) {
+            const glm::vec3& p = mesh.positions[i];
+            int n = normals ? std::snprintf(buf, sizeof buf, "%.9g %.9g %.9g %.6g %.6g %.6g\n", p.x, p.y, p.z,
+                                            mesh.normals[i].x, mesh.normals[i].y, mesh.normals[i].z)
+                            : std::snprintf(buf, sizeof buf, "%.9g %.9g %.9g\n", p.x, p.y, p.z);
+            out.write(buf, static_cast<std::size_t>(n));
+        }
+        for (const glm::uvec3& t : mesh.triangles) {
+            int n = std::snprintf(buf, sizeof buf, "3 %u %u %u\n", t.x, t.y, t.z);
+            out.write(buf, static_cast<std::size_t>(n));
+        }
+    } else {
+        static_assert(std::endian::native == std::endian::little, "binary PLY writer assumes a little-endian host");
+        std::vector<float> v;
+        const std::size_t stride = normals ? 6 : 3;
+        constexpr std::size_t chunk = 1 << 16;
+        v.reserve(chunk * stride);
+        for (std::size_t b = 0; b < mesh.positions.size(); b += chunk) {
+            v.clear();
+            for (std::size_t i = b; i < std::min(mesh.positions.size(), b + chunk); ++i) {
+                v.insert(v.end(), {mesh.positions[i].x, mesh.positions[i].y, mesh.positions[i].z});
+                if (normals) v.insert(v.end(), {mesh.normals[i].x, mesh.normals[i].y, mesh.normals[i].z});
+            }
+            out.write(v.data(), v.size() * sizeof(float));
+        }
+        std::vector<unsigned char> f;
+        f.reserve(chunk * 13);
+        for (std::size_t b = 0; b < mesh.triangles.size(); b += chunk) {
+            f.clear();
+            for (std::size_t i = b; i < std::min(mesh.triangles.size(), b + chunk); ++i) {
+                f.push_back(3);
+                std::int32_t idx[3] = {static_cast<std::int32_t>(mesh.triangles[i].x),
+                                       static_cast<std::int32_t>(mesh.triangles[i].y),
+                                       static_cast<std::int32_t>(mesh.triangles[i].z)};
+                const auto* bytes = reinterpret_cast<const unsigned char*>(idx);
+                f.insert(f.end(), bytes, bytes + sizeof idx);
+            }
+            out.write(f.data(), f.size());
+        }
+    }
+    out.commit();
+}
+
+// ---------------------------------------------------------------------------------------------
+// OBJ
+TriMesh readObj(const std::filesystem::path& path, const std::string& data) {
+    TextCursor cur(data, path.string());
+    TriMesh mesh;
+    std::vector<std::uint32_t> face;
+    while (!cur.atEnd()) {
+        cur.skipSpaces();
+        std::string_view kw = cur.word();
+        if (kw == "v") {
+            float x = cur.number<float>("vertex x"), y = cur.number<float>("vertex y"), z = cur.number<float>("vertex z");
+            mesh.positions.emplace_back(x, y, z);
+        } else if (kw == "f") {
+            face.clear();
+            while (!cur.atLineEnd()) {
+                long long idx = cur.number<long long>("a vertex index");
+                long long n = static_cast<long long>(mesh.positions.size());
+                long long resolved = idx < 0 ? n + idx : idx - 1;
+                if (idx == 0 || resolved < 0 || resolved >= n)
+                    cur.fail("face names vertex " + std::to_string(idx) + ", but " + std::to_string(n) +
+                             " vertices are defined so far");
+                face.push_back(static_cast<std::uint32_t>(resolved));
+                while (!cur.atEnd() && !std::isspace(static_cast<unsigned char>(cur.peek()))) cur.advance();  // /vt/vn
+            }
+            if (face.size() < 3) cur.fail("a face needs at least 3 vertices, found " + std::to_string(face.size()));
+            triangulateFace(mesh, face);
+        }
+        cur.nextLine();  // other statements (vn vt g o s usemtl mtllib l p comments) carry no geometry we use
+    }
+    if (mesh.triangles.empty()) throw IoError(path.string() + ": OBJ file has no faces");
+    return mesh;
+}
+
+void writeObj(const std::filesystem::path& path, const TriMesh& mesh) {
+    AtomicFile out(path);
+    const bool normals = mesh.normals.size() == mesh.positions.size() && !mesh.normals.empty();
+    out.write("# made by isoforge\n");
+    char buf[256];
+    for (const glm::vec3& p : mesh.positions)
+        out.write(buf, static_cast<std::size_t>(std::snprintf(buf, sizeof buf, "v %.9g %.9g %.9g\n", p.x, p.y, p.z)));
+    if (normals)
+        for (const glm::vec3& n : mesh.normals)
+            out.write(buf, static_cast<std::size_t>(std::snprintf(buf, sizeof buf, "vn %.6g %.6g %.6g\n", n.x, n.y, n.z)));
+    for (const glm::uvec3& t : mesh.triangles) {
+        int n = normals ? std::snprintf(buf, sizeof buf, "f %u//%u %u//%u %u//%u\n", t.x + 1, t.x + 1, t.y + 1,
+                                        t.y + 1, t.z + 1, t.z + 1)
+                        : std::snprintf(buf, sizeof buf, "f %u %u %u\n", t.x + 1, t.y + 1, t.z + 1);
+        out.write(buf, static_cast<std::size_t>(n));
+    }
+    out.commit();
+}
+
+// ---------------------------------------------------------------------------------------------
+// STL
+TriMesh readStl(const std::filesystem::path& path, const std::string& data) {
+    const std::string file = path.string();
+    TriMesh mesh;
+    bool binary = false;
+    if (data.size() >= 84) {
+        std::uint32_t n;
+        std::memcpy(&n, data.data() + 80, 4);
+        binary = data.size() == 84 + 50ull * n;
+    }
+    const bool looksAscii = data.compare(0, 5, "solid") == 0 && !binary;
+    if (binary) {
+        std::uint32_t n;
+        std::memcpy(&n, data.data() + 80, 4);
+        mesh.positions.reserve(3ull * n);
+        mesh.triangles.reserve(n);
+        for (std::uint32_t i = 0; i < n; ++i) {
+            const char* rec = data.data() + 84 + 50ull * i;
+            for (int k = 0; k < 3; ++k) {
+                float p[3];
+                std::memcpy(p, rec + 12 + 12 * k, 12);
+                if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+                    throw IoError(file + ": byte " + std::to_string(84 + 50ull * i + 12 + 12 * k) + ": triangle " +
+                                  std::to_string(i) + " has a non-finite coordinate");
+                mesh.positions.emplace_back(p[0], p[1], p[2]);
+            }
+            mesh.triangles.emplace_back(3 * i, 3 * i + 1, 3 * i + 2);
+        }
+    } else if (looksAscii) {
+        TextCursor cur(data, file);
+        cur.nextLine();
+        std::vector<glm::vec3> corner;
+        while (!cur.atEnd()) {
+            std::string_view kw = cur.word();
+            if (kw == "vertex") {
+                float x = cur.number<float>("vertex x"), y = cur.number<float>("vertex y"), z = cur.number<float>("vertex z");
+                corner.emplace_back(x, y, z);
+            } else if (kw == "endfacet") {
+                if (corner.size() != 3) cur.fail("facet has " + std::to_string(corner.size()) + " vertices, expected 3");
+                auto b = static_cast<std::uint32_t>(mesh.positions.size());
+                mesh.positions.insert(mesh.positions.end(), corner.begin(), corner.end());
+                mesh.triangles.emplace_back(b, b + 1, b + 2);
+                corner.clear();
+            } else if (kw == "endsolid") {
+                break;
+            } else if (!kw.empty() && kw != "facet" && kw != "outer" && kw != "endloop" && kw != "solid") {
+                cur.fail("unexpected '" + std::string(kw) + "' in ASCII STL");
+            }
+            cur.nextLine();
+        }
+        if (!corner.empty()) cur.fail("file ends inside a facet (truncated?)");
+    } else {
+        std::uint32_t n = 0;
+        if (data.size() >= 84) std::memcpy(&n, data.data() + 80, 4);
+        throw IoError(file + ": not an STL file: binary STL of " + std::to_string(n) + " triangles needs " +
+                      std::to_string(84 + 50ull * n) + " bytes, the file has " + std::to_string(data.size()) +
+                      " (truncated?), and it does not start with 'solid'");
+    }
+    if (mesh.triangles.empty()) throw IoError(file + ": STL file has no triangles");
+    weldIdenticalPositions(mesh);
+    return mesh;
+}
+
+void writeStl(const std::filesystem::path& path, const TriMesh& mesh) {
+    AtomicFile out(path);
+    char header[80] = {};
+    std::snprintf(header, sizeof header, "binary STL made by isoforge");
+    out.write(header, 80);
+    auto n = static_cast<std::uint32_t>(mesh.triangles.size());
+    out.write(&n, 4);
+    std::vector<char> buf;
+    buf.reserve(50 * 4096);
+    for (std::size_t i = 0; i < mesh.triangles.size(); ++i) {
+        const glm::uvec3& t = mesh.triangles[i];
+        const glm::vec3 a = mesh.positions[t.x], b = mesh.positions[t.y], c = mesh.positions[t.z];
+        glm::vec3 nrm = glm::cross(b - a, c - a);
+        float len = glm::length(nrm);
+        if (len > 0) nrm /= len;
+        float rec[12] = {nrm.x, nrm.y, nrm.z, a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z};
+        const char* bytes = reinterpret_cast<const char*>(rec);
+        buf.insert(buf.end(), bytes, bytes + 48);
+        buf.push_back(0);
+        buf.push_back(0);
+        if (buf.size() >= 50 * 4096) {
+            out.write(buf.data(), buf.size());
+            buf.clear();
+        }
+    }
+    out.write(buf.data(), buf.size());
+    out.commit();
+}
+
+}  // namespace
+
+bool isMeshPath(const std::filesystem::path& path) {
+    const std::string e = lowerExtension(path);
+    return e == ".ply" || e == ".obj" || e == ".stl";
+}
+
+TriMesh readMesh(const std::filesystem::path& path) {
+    const std::string e = lowerExtension(path);
+    if (e != ".ply" && e != ".obj" && e != ".stl")
+        throw IoError(path.string() + ": unknown mesh extension '" + e + "' (expected .ply, .obj or .stl)");
+    const std::string data = readWholeFile(path);
+    if (e == ".ply") return readPly(path, data);
+    if (e == ".obj") return readObj(path, data);
+    return readStl(path, data);
+}
+
+void writeMesh(const std::filesystem::path& path, const TriMesh& mesh, const WriteOptions& options) {
+    const std::string e = lowerExtension(path);
+    if (e == ".ply") writePly(path, mesh, options.ascii);
+    else if (e == ".obj") writeObj(path, mesh);
+    else if (e == ".stl") writeStl(path, mesh);
+    else throw IoError(path.string() + ": unknown mesh extension '" + e + "' (expected .ply, .obj or .stl)");
+}
+
+}  // namespace isoforge::mesh

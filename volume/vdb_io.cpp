@@ -1,0 +1,160 @@
+#include "volume/vdb_io.h"
+
+#include <fstream>
+#include <mutex>
+#include <sstream>
+
+#include <openvdb/io/File.h>
+#include <openvdb/io/Stream.h>
+#include <openvdb/tools/Count.h>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+
+namespace isoforge::volume {
+
+void initializeOpenVdb() {
+    static std::once_flag once;
+    std::call_once(once, [] { openvdb::initialize(); });
+}
+
+namespace {
+
+// Checks what OpenVDB's reader takes on trust, so that a damaged file gives an error rather than a
+// crash or a huge allocation: the magic number, and that the file is not shorter than its header.
+void precheck(const std::filesystem::path& path) {
+    std::error_code ec;
+    if (!std::filesystem::exists(path, ec)) throw IoError(path.string() + ": no such file");
+    if (std::filesystem::is_directory(path, ec)) throw IoError(path.string() + ": is a directory, expected a .vdb file");
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw IoError(path.string() + ": cannot open");
+    unsigned char magic[8] = {};
+    in.read(reinterpret_cast<char*>(magic), 8);
+    if (in.gcount() < 8) throw IoError(path.string() + ": byte 0: file too short to be a VDB file (" +
+                                       std::to_string(in.gcount()) + " bytes)");
+    // OpenVDB files start with the 64-bit magic number 0x56444220 ("VDB ") in little-endian order.
+    if (!(magic[0] == 0x20 && magic[1] == 0x42 && magic[2] == 0x44 && magic[3] == 0x56))
+        throw IoError(path.string() + ": byte 0: not an OpenVDB file (expected the magic number 'VDB ')");
+}
+
+}  // namespace
+
+openvdb::GridPtrVec readVdb(const std::filesystem::path& path) {
+    initializeOpenVdb();
+    precheck(path);
+    try {
+        // Read through a stream over the whole file: no delayed loading, no memory mapping, so a
+        // truncated file fails here, in the reader, and not later while meshing.
+        std::ifstream in(path, std::ios::binary);
+        openvdb::io::Stream stream(in, /*delayLoad=*/false);
+        openvdb::GridPtrVecPtr grids = stream.getGrids();
+        if (!grids) throw IoError(path.string() + ": no grids");
+        if (in.bad()) throw IoError(path.string() + ": read error");
+        return *grids;
+    } catch (const IoError&) {
+        throw;
+    } catch (const openvdb::Exception& e) {
+        throw IoError(path.string() + ": corrupt or truncated VDB file: " + e.what());
+    } catch (const std::bad_alloc&) {
+        throw IoError(path.string() + ": corrupt VDB file (it asks for an impossible amount of memory)");
+    } catch (const std::exception& e) {
+        throw IoError(path.string() + ": corrupt or truncated VDB file: " + e.what());
+    }
+}
+
+openvdb::FloatGrid::Ptr readFloatGrid(const std::filesystem::path& path, const std::optional<std::string>& name) {
+    openvdb::GridPtrVec grids = readVdb(path);
+    openvdb::FloatGrid::Ptr pick;
+    for (const auto& g : grids) {
+        auto f = openvdb::gridPtrCast<openvdb::FloatGrid>(g);
+        if (name) {
+            if (g->getName() == *name) {
+                if (!f) throw IoError(path.string() + ": grid '" + *name + "' is of type " + g->valueType() +
+                                      "; isoforge meshes float grids");
+                return f;
+            }
+            continue;
+        }
+        if (f && (!pick || (pick->getGridClass() != openvdb::GRID_LEVEL_SET &&
+                            f->getGridClass() == openvdb::GRID_LEVEL_SET)))
+            pick = f;
+    }
+    if (pick) return pick;
+    std::string list;
+    for (const auto& g : grids) list += "\n  '" + g->getName() + "' (" + g->valueType() + ")";
+    if (grids.empty()) list = " none";
+    throw IoError(path.string() + ": " + (name ? "no grid named '" + *name + "'" : std::string("no float grid")) +
+                  "; the file holds:" + list);
+}
+
+void writeVdb(const std::filesystem::path& path, const openvdb::GridCPtrVec& grids) {
+    initializeOpenVdb();
+    AtomicFile out(path);
+    try {
+        std::ostringstream buffer(std::ios::binary);
+        openvdb::io::Stream(buffer).write(grids);
+        out.write(buffer.str());
+    } catch (const openvdb::Exception& e) {
+        throw IoError(path.string() + ": cannot write VDB: " + e.what());
+    }
+    out.commit();
+}
+
+GridSummary summarize(const openvdb::GridBase& grid) {
+    GridSummary s;
+    s.name = grid.getName();
+    s.type = grid.valueType();
+    s.gridClass = openvdb::GridBase::gridClassToString(grid.getGridClass());
+    s.voxelSize = grid.voxelSize();
+    s.uniformScale = grid.hasUniformVoxels();
+    s.activeVoxels = grid.activeVoxelCount();
+    s.indexBounds = grid.evalActiveVoxelBoundingBox();
+    s.memoryBytes = grid.memUsage();
+    if (!s.indexBounds.empty()) {
+        openvdb::BBoxd box(s.indexBounds.min().asVec3d() - 0.5, s.indexBounds.max().asVec3d() + 0.5);
+        s.worldBounds = grid.transform().indexToWorld(box);
+    }
+    if (const auto* f = dynamic_cast<const openvdb::FloatGrid*>(&grid)) {
+        s.leafNodes = f->tree().leafCount();
+        s.activeTiles = f->tree().activeTileCount();
+        s.background = f->background();
+        if (s.activeVoxels > 0) {
+            openvdb::math::MinMax<float> mm = openvdb::tools::minMax(f->tree());
+            s.minValue = mm.min();
+            s.maxValue = mm.max();
+        }
+    } else if (const auto* d = dynamic_cast<const openvdb::DoubleGrid*>(&grid)) {
+        s.leafNodes = d->tree().leafCount();
+        s.activeTiles = d->tree().activeTileCount();
+        s.background = d->background();
+    }
+    return s;
+}
+
+std::string toString(const GridSummary& s) {
+    std::ostringstream o;
+    o.precision(6);
+    o << "grid '" << s.name << "'  " << s.type << ", " << s.gridClass << "\n";
+    o << "  voxel size     " << s.voxelSize.x();
+    if (!s.uniformScale) o << " x " << s.voxelSize.y() << " x " << s.voxelSize.z();
+    o << "\n  active voxels  " << s.activeVoxels;
+    if (s.activeTiles) o << " (" << s.activeTiles << " active tiles)";
+    o << "\n  leaf nodes     " << s.leafNodes;
+    if (s.indexBounds.empty()) {
+        o << "\n  bounding box   empty";
+    } else {
+        const auto& a = s.indexBounds;
+        o << "\n  index bbox     [" << a.min().x() << ", " << a.min().y() << ", " << a.min().z() << "] .. [" << a.max().x()
+          << ", " << a.max().y() << ", " << a.max().z() << "]  (" << a.dim().x() << " x " << a.dim().y() << " x "
+          << a.dim().z() << ")";
+        const auto& w = s.worldBounds;
+        o << "\n  world bbox     [" << w.min().x() << ", " << w.min().y() << ", " << w.min().z() << "] .. ["
+          << w.max().x() << ", " << w.max().y() << ", " << w.max().z() << "]";
+    }
+    if (s.background) o << "\n  background     " << *s.background;
+    if (s.minValue) o << "\n  value range    " << *s.minValue << " .. " << *s.maxValue << " (active)";
+    o << "\n  memory         " << (s.memoryBytes + 512 * 1024) / (1024 * 1024) << " MiB\n";
+    return o.str();
+}
+
+}  // namespace isoforge::volume
