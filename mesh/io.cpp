@@ -288,8 +288,7 @@ TriMesh readPly(const std::filesystem::path& path, const std::string& data) {
                 auto readValue = [&](PlyType t) -> double {
                     if (format != Format::Ascii) return bin.read(t, what.c_str());
                     if (text.atEnd()) text.fail("file ends while reading " + what + " (truncated?)");
-                    text.skipWhitespace();
-                    return text.number<double>(what.c_str());
+                    return text.number<double>(what.c_str());  // one element per line
                 };
                 if (!p.isList) {
                     double v = readValue(p.type);
@@ -314,6 +313,8 @@ TriMesh readPly(const std::filesystem::path& path, const std::string& data) {
                     face.push_back(static_cast<std::uint32_t>(v));
                 }
             }
+            if (format == Format::Ascii && !text.atLineEnd())
+                text.fail("expected the end of " + e.name + " " + std::to_string(i) + "'s line, found more values");
             if (isVertex) {
                 mesh.positions[i] = glm::vec3(values[ix], values[iy], values[iz]);
                 if (!mesh.normals.empty()) mesh.normals[i] = glm::vec3(values[inx], values[iny], values[inz]);

@@ -49,7 +49,8 @@ openvdb::GridPtrVec readVdb(const std::filesystem::path& path) {
         openvdb::io::Stream stream(in, /*delayLoad=*/false);
         openvdb::GridPtrVecPtr grids = stream.getGrids();
         if (!grids) throw IoError(path.string() + ": no grids");
-        if (in.bad()) throw IoError(path.string() + ": read error");
+        // OpenVDB does not check its stream: a truncated file leaves it failed, with zeros read.
+        if (in.fail()) throw IoError(path.string() + ": truncated VDB file (data ends before the grids do)");
         return *grids;
     } catch (const IoError&) {
         throw;

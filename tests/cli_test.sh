@@ -1,0 +1,72 @@
+#!/usr/bin/env bash
+# End-to-end checks of the isoforge command line: exit codes, messages, outputs.
+# Usage: cli_test.sh ISOFORGE SOURCE_DIR
+set -u
+bin=$1
+src=$2
+shared=$src/../shared/data
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+pass=0
+fail=0
+ok() { pass=$((pass + 1)); }
+bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
+expect_exit() {  # expected-code description command...
+    local want=$1 what=$2
+    shift 2
+    "$@" >"$tmp/out" 2>"$tmp/err"
+    local got=$?
+    if [ "$got" -eq "$want" ]; then ok; else bad "$what: exit $got, expected $want"; cat "$tmp/err"; fi
+}
+
+expect_exit 0 "--help" "$bin" --help
+grep -q "mesh" "$tmp/out" && ok || bad "--help lists the mesh command"
+expect_exit 0 "--version" "$bin" --version
+grep -q "OpenVDB 10" "$tmp/out" && ok || bad "--version names OpenVDB"
+expect_exit 0 "mesh --help" "$bin" mesh --help
+grep -q -- "--iso" "$tmp/out" && ok || bad "mesh --help lists --iso"
+expect_exit 2 "no subcommand" "$bin"
+expect_exit 2 "unknown subcommand" "$bin" frobnicate
+expect_exit 2 "unknown option" "$bin" mesh "$src/data/sphere.vdb" -o "$tmp/a.ply" --bogus
+expect_exit 2 "missing -o" "$bin" mesh "$src/data/sphere.vdb"
+expect_exit 2 "bad --threads" "$bin" --threads 0 info "$src/data/sphere.vdb"
+
+# The main job on bundled data.
+expect_exit 0 "info" "$bin" info "$src/data/sphere.vdb"
+grep -q "270638" "$tmp/out" && ok || bad "info reports the active voxel count"
+expect_exit 0 "mesh" "$bin" mesh "$src/data/sphere.vdb" -o "$tmp/sphere.ply"
+grep -q "triangles" "$tmp/out" && ok || bad "mesh prints a summary"
+expect_exit 0 "mesh --quiet" "$bin" --quiet mesh "$src/data/sphere.vdb" -o "$tmp/q.obj"
+[ ! -s "$tmp/out" ] && ok || bad "--quiet prints nothing"
+expect_exit 0 "global option after the command" "$bin" mesh "$src/data/sphere.vdb" -o "$tmp/t.stl" --threads 1 --quiet
+expect_exit 0 "check --strict" "$bin" check --strict "$tmp/sphere.ply" "$tmp/q.obj" "$tmp/t.stl"
+grep -q "genus           0" "$tmp/out" && ok || bad "check reports genus 0"
+cmp -s "$tmp/sphere.ply" <("$bin" --threads 1 --quiet mesh "$src/data/sphere.vdb" -o "$tmp/one.ply"; cat "$tmp/one.ply") \
+    && ok || bad "1 thread and all threads give the same file"
+if [ -f "$shared/volumes/openvdb-samples/smoke.vdb" ]; then
+    expect_exit 0 "fog mesh" "$bin" mesh "$shared/volumes/openvdb-samples/smoke.vdb" --grid density --iso 0.2 -o "$tmp/smoke.obj" --stats
+    grep -q "watertight      yes" "$tmp/out" && ok || bad "smoke mesh is watertight"
+    expect_exit 1 "check --strict on an open mesh" "$bin" check --strict "$shared/meshes/bunny/bunny.ply"
+    expect_exit 0 "check on an open mesh" "$bin" check "$shared/meshes/bunny/bunny.ply"
+    grep -q "boundary edges" "$tmp/out" && ok || bad "check reports the bunny's holes"
+fi
+
+# Bad input: exit 1, a one-line message naming the file, no output file.
+expect_exit 1 "missing input" "$bin" mesh "$tmp/nope.vdb" -o "$tmp/x.ply"
+grep -q "nope.vdb" "$tmp/err" && ok || bad "message names the missing file"
+[ "$(wc -l <"$tmp/err")" -eq 1 ] && ok || bad "one-line message"
+echo "not a vdb" >"$tmp/text.vdb"
+expect_exit 1 "non-VDB input" "$bin" mesh "$tmp/text.vdb" -o "$tmp/x.ply"
+head -c 5000 "$src/data/sphere.vdb" >"$tmp/cut.vdb"
+expect_exit 1 "truncated VDB" "$bin" mesh "$tmp/cut.vdb" -o "$tmp/x.ply"
+expect_exit 1 "truncated VDB info" "$bin" info "$tmp/cut.vdb"
+expect_exit 1 "unknown grid" "$bin" mesh "$src/data/sphere.vdb" --grid nothing -o "$tmp/x.ply"
+[ ! -e "$tmp/x.ply" ] && ok || bad "no output file after errors"
+expect_exit 2 "bad output extension" "$bin" mesh "$src/data/sphere.vdb" -o "$tmp/x.xyz"
+printf 'v 0 0 0\nf 1 2 3\n' >"$tmp/bad.obj"
+expect_exit 1 "bad OBJ" "$bin" check "$tmp/bad.obj"
+grep -q "bad.obj:2:" "$tmp/err" && ok || bad "OBJ error has line and column"
+expect_exit 1 "unwritable output" "$bin" mesh "$src/data/sphere.vdb" -o "$tmp/no/such/dir/x.ply"
+
+echo "$pass passed, $fail failed"
+[ "$fail" -eq 0 ]

@@ -1,0 +1,294 @@
+#include <cmath>
+#include <functional>
+#include <random>
+
+#include <glm/geometric.hpp>
+#include <gtest/gtest.h>
+#include <openvdb/tools/Composite.h>
+#include <openvdb/tools/LevelSetPlatonic.h>
+#include <openvdb/tools/LevelSetSphere.h>
+#include <openvdb/tools/LevelSetUtil.h>
+#include <openvdb/tools/MeshToVolume.h>
+#include <openvdb/tools/SignedFloodFill.h>
+#include <openvdb/tools/VolumeToMesh.h>
+#include <tbb/global_control.h>
+
+#include "test_util.h"
+#include "volume/marching_cubes.h"
+#include "volume/vdb_io.h"
+
+using namespace isoforge;
+using openvdb::Coord;
+using openvdb::FloatGrid;
+using openvdb::Vec3f;
+
+namespace {
+
+struct Init {
+    Init() { volume::initializeOpenVdb(); }
+} init;
+
+/// A narrow-band level set of an analytic signed distance function (world units), inside filled.
+FloatGrid::Ptr levelSetFromSdf(const std::function<double(const openvdb::Vec3d&)>& sdf, double halfExtent,
+                               float voxel, float halfWidth = 3.f) {
+    auto grid = FloatGrid::create(halfWidth * voxel);
+    grid->setTransform(openvdb::math::Transform::createLinearTransform(voxel));
+    grid->setGridClass(openvdb::GRID_LEVEL_SET);
+    auto acc = grid->getAccessor();
+    const int n = static_cast<int>(std::ceil(halfExtent / voxel)) + 4;
+    for (int i = -n; i <= n; ++i)
+        for (int j = -n; j <= n; ++j)
+            for (int k = -n; k <= n; ++k) {
+                const double d = sdf(openvdb::Vec3d(i, j, k) * voxel);
+                if (std::abs(d) < halfWidth * voxel) acc.setValue(Coord(i, j, k), static_cast<float>(d));
+            }
+    openvdb::tools::signedFloodFill(grid->tree());
+    return grid;
+}
+
+double torusSdf(const openvdb::Vec3d& p, double R, double r) {
+    const double q = std::sqrt(p.x() * p.x() + p.y() * p.y()) - R;
+    return std::sqrt(q * q + p.z() * p.z()) - r;
+}
+
+mesh::TriMesh meshOf(const FloatGrid& g, float iso = 0.f, volume::InsideSide side = volume::InsideSide::Auto) {
+    volume::MeshingOptions o;
+    o.isovalue = iso;
+    o.inside = side;
+    return volume::extractIsosurface(g, o);
+}
+
+}  // namespace
+
+TEST(MarchingCubes, SphereAreaAndVolumeMatchAnalyticAtRadius50Voxels) {
+    const float R = 50.f;
+    auto grid = openvdb::tools::createLevelSetSphere<FloatGrid>(R, Vec3f(0.3f, -0.2f, 0.1f), 1.f, 3.f);
+    const auto r = test::expectClosedSurface(meshOf(*grid), "sphere R=50");
+    const double area = 4.0 * M_PI * R * R, volume = 4.0 / 3.0 * M_PI * R * R * R;
+    EXPECT_NEAR(r.area, area, 0.005 * area);
+    EXPECT_NEAR(r.volume, volume, 0.005 * volume);
+    EXPECT_EQ(r.components, 1u);
+    EXPECT_EQ(*r.genus(), 0);
+}
+
+TEST(MarchingCubes, SpheresAtSeveralResolutionsAndCentres) {
+    for (float voxel : {0.5f, 0.2f, 0.1f, 0.037f})
+        for (Vec3f c : {Vec3f(0.f), Vec3f(0.51f, -1.33f, 2.7f), Vec3f(-13.f, 8.f, -4.f)}) {
+            auto grid = openvdb::tools::createLevelSetSphere<FloatGrid>(1.5f, c, voxel, 3.f);
+            const std::string what = "sphere voxel " + std::to_string(voxel);
+            const auto r = test::expectClosedSurface(meshOf(*grid), what);
+            EXPECT_EQ(r.components, 1u) << what;
+            EXPECT_EQ(*r.genus(), 0) << what;
+            // Vertices lie on the sphere to a small fraction of a voxel.
+            auto m = meshOf(*grid);
+            double worst = 0;
+            for (const auto& p : m.positions) worst = std::max(worst, std::abs(glm::length(p - glm::vec3(c.x(), c.y(), c.z())) - 1.5));
+            EXPECT_LT(worst, 0.1 * voxel) << what;
+        }
+}
+
+TEST(MarchingCubes, PlatonicSolidsAndBoxes) {
+    for (int faces : {4, 6, 8, 12, 20})
+        for (float voxel : {0.1f, 0.043f}) {
+            auto grid = openvdb::tools::createLevelSetPlatonic<FloatGrid>(faces, 1.f, Vec3f(0.2f, 0.f, -0.1f), voxel);
+            const auto r = test::expectClosedSurface(meshOf(*grid), "platonic " + std::to_string(faces));
+            EXPECT_EQ(*r.genus(), 0);
+            EXPECT_EQ(r.components, 1u);
+        }
+    auto box = openvdb::tools::createLevelSetBox<FloatGrid>(openvdb::BBoxd({-1, -2, -0.5}, {1.5, 1, 0.5}),
+                                                            *openvdb::math::Transform::createLinearTransform(0.05));
+    const auto r = test::expectClosedSurface(meshOf(*box), "box");
+    EXPECT_NEAR(r.volume, 2.5 * 3 * 1, 0.01 * 7.5);
+}
+
+TEST(MarchingCubes, TorusHasGenusOne) {
+    for (float voxel : {0.08f, 0.04f, 0.02f}) {
+        auto grid = levelSetFromSdf([](const openvdb::Vec3d& p) { return torusSdf(p, 1.0, 0.35); }, 1.4, voxel);
+        const auto r = test::expectClosedSurface(meshOf(*grid), "torus");
+        EXPECT_EQ(*r.genus(), 1);
+        const double volume = 2 * M_PI * M_PI * 1.0 * 0.35 * 0.35;
+        EXPECT_NEAR(r.volume, volume, 0.02 * volume);
+    }
+}
+
+TEST(MarchingCubes, CsgOfLevelSets) {
+    auto xf = openvdb::math::Transform::createLinearTransform(0.04);
+    // A box with a sphere removed from a corner, and two overlapping spheres.
+    auto box = openvdb::tools::createLevelSetBox<FloatGrid>(openvdb::BBoxd({-1, -1, -1}, {1, 1, 1}), *xf);
+    auto ball = openvdb::tools::createLevelSetSphere<FloatGrid>(0.8f, Vec3f(1.f, 1.f, 1.f), 0.04f);
+    openvdb::tools::csgDifference(*box, *ball);
+    auto r = test::expectClosedSurface(meshOf(*box), "box - sphere");
+    const double expected = 8.0 - (4.0 / 3.0 * M_PI * 0.512) / 8.0;
+    EXPECT_NEAR(r.volume, expected, 0.01 * expected);
+    EXPECT_EQ(*r.genus(), 0);
+
+    auto a = openvdb::tools::createLevelSetSphere<FloatGrid>(1.f, Vec3f(0.f), 0.04f);
+    auto b = openvdb::tools::createLevelSetSphere<FloatGrid>(1.f, Vec3f(1.2f, 0.f, 0.f), 0.04f);
+    openvdb::tools::csgUnion(*a, *b);
+    r = test::expectClosedSurface(meshOf(*a), "sphere + sphere");
+    EXPECT_EQ(r.components, 1u);
+
+    // A sphere with a cylinder drilled through it: genus 1.
+    auto s = levelSetFromSdf([](const openvdb::Vec3d& p) {
+        const double sphere = p.length() - 1.0;
+        const double cyl = std::sqrt(p.x() * p.x() + p.y() * p.y()) - 0.4;
+        return std::max(sphere, -cyl);
+    }, 1.1, 0.03f);
+    r = test::expectClosedSurface(meshOf(*s), "drilled sphere");
+    EXPECT_EQ(*r.genus(), 1);
+}
+
+TEST(MarchingCubes, AgreesWithOpenVdbVolumeToMesh) {
+    auto grid = openvdb::tools::createLevelSetPlatonic<FloatGrid>(12, 2.f, Vec3f(0.1f), 0.05f);
+    const auto ours = mesh::check(meshOf(*grid));
+    std::vector<Vec3f> points;
+    std::vector<openvdb::Vec3I> tris;
+    std::vector<openvdb::Vec4I> quads;
+    openvdb::tools::volumeToMesh(*grid, points, tris, quads, 0.0, 0.0);
+    mesh::TriMesh theirs;
+    for (const auto& p : points) theirs.positions.emplace_back(p.x(), p.y(), p.z());
+    // OpenVDB's quads are ordered the other way round from our counter-clockwise convention.
+    for (const auto& q : quads) {
+        theirs.triangles.emplace_back(q[0], q[2], q[1]);
+        theirs.triangles.emplace_back(q[0], q[3], q[2]);
+    }
+    const auto ref = mesh::check(theirs);
+    EXPECT_NEAR(ours.area, ref.area, 0.01 * ref.area);
+    EXPECT_NEAR(std::abs(ours.volume), std::abs(ref.volume), 0.01 * std::abs(ref.volume));
+}
+
+TEST(MarchingCubes, SingleVoxelAndLeafBoundaries) {
+    // One inside voxel: an octahedron of 8 triangles around it.
+    for (Coord c : {Coord(0, 0, 0), Coord(7, 7, 7), Coord(8, 8, 8), Coord(-1, -1, -1), Coord(-8, 7, 8), Coord(15, -9, 0)}) {
+        auto grid = FloatGrid::create(1.f);
+        grid->setGridClass(openvdb::GRID_LEVEL_SET);
+        grid->tree().setValue(c, -1.f);
+        auto m = meshOf(*grid);
+        const auto r = test::expectClosedSurface(m, "single voxel");
+        EXPECT_EQ(r.triangles, 8u);
+        EXPECT_EQ(r.vertices, 6u);
+        EXPECT_EQ(*r.genus(), 0);
+    }
+    // Blocks of inside voxels straddling leaf corners in every direction.
+    auto grid = FloatGrid::create(1.f);
+    grid->setGridClass(openvdb::GRID_LEVEL_SET);
+    for (int i = 5; i <= 10; ++i)
+        for (int j = -3; j <= 2; ++j)
+            for (int k = 6; k <= 9; ++k) grid->tree().setValue(Coord(i, j, k), -0.5f);
+    const auto r = test::expectClosedSurface(meshOf(*grid), "leaf-straddling block");
+    EXPECT_EQ(r.components, 1u);
+}
+
+TEST(MarchingCubes, RandomNoiseAtManyIsoValuesIncludingExactHits) {
+    std::mt19937 rng(12345);
+    std::uniform_int_distribution<int> level(-4, 4);
+    std::uniform_real_distribution<float> real(-1.f, 1.f);
+    for (int trial = 0; trial < 6; ++trial) {
+        auto grid = FloatGrid::create(10.f);  // background: outside at every iso below 10
+        grid->setGridClass(openvdb::GRID_UNKNOWN);
+        auto acc = grid->getAccessor();
+        const bool quantized = trial % 2 == 0;  // quantized values make the iso hit voxel values exactly
+        for (int i = -11; i < 13; ++i)
+            for (int j = -5; j < 19; ++j)
+                for (int k = 3; k < 21; ++k) acc.setValue(Coord(i, j, k), quantized ? 0.25f * level(rng) : real(rng));
+        for (float iso : {-0.75f, -0.5f, -0.1f, 0.f, 0.25f, 0.3f, 0.5f, 0.99f}) {
+            auto m = meshOf(*grid, iso, volume::InsideSide::Below);
+            test::expectClosedSurface(m, "noise trial " + std::to_string(trial) + " iso " + std::to_string(iso));
+        }
+    }
+}
+
+TEST(MarchingCubes, FogVolumesThinSheetsAndActiveTiles) {
+    // A one-voxel-thick sheet of density, diagonal staircase included.
+    auto sheet = FloatGrid::create(0.f);
+    sheet->setGridClass(openvdb::GRID_FOG_VOLUME);
+    for (int i = -20; i < 20; ++i)
+        for (int j = -20; j < 20; ++j) {
+            sheet->tree().setValue(Coord(i, j, 0), 1.f);
+            sheet->tree().setValue(Coord(i, j, (i + j) / 2 + 30), 1.f);
+        }
+    for (float iso : {0.2f, 0.5f, 0.999f}) test::expectClosedSurface(meshOf(*sheet, iso), "sheet");
+
+    // Dense regions stored as active tiles, touching leaves and background.
+    auto fog = FloatGrid::create(0.f);
+    fog->setGridClass(openvdb::GRID_FOG_VOLUME);
+    fog->tree().fill(openvdb::CoordBBox(Coord(0), Coord(255)), 1.f, true);       // 128^3 and 8^3 tiles
+    fog->tree().fill(openvdb::CoordBBox(Coord(256, 0, 0), Coord(263, 7, 7)), 1.f, true);  // leaf-sized tile
+    fog->tree().fill(openvdb::CoordBBox(Coord(-300, 3, 5), Coord(-280, 20, 9)), 0.7f, true);
+    fog->tree().setValue(Coord(100, 256, 100), 1.f);  // a voxel touching the big tile's face
+    volume::MeshingStats stats;
+    volume::MeshingOptions o;
+    o.isovalue = 0.5f;
+    auto m = volume::extractIsosurface(*fog, o, &stats);
+    const auto r = test::expectClosedSurface(m, "active tiles");
+    // A 256^3 box (surface half a voxel outside the boundary voxels), the 8^3 tile on its side, and
+    // the slab of 0.7 (surface 0.2857 voxels out: 20.57 x 17.57 x 4.57).
+    const double expected = 256.0 * 256 * 256 + 512 + 20.571 * 17.571 * 4.571;
+    EXPECT_NEAR(r.volume, expected, 0.02 * expected);
+    EXPECT_EQ(r.components, 2u);
+    // Work follows the surface: the 256^3 interior is not visited voxel by voxel.
+    EXPECT_LT(stats.blocks, 20000u);
+}
+
+TEST(MarchingCubes, SmokeFogVolumeAtManyIsoValues) {
+    const auto path = test::sharedData() / "volumes/openvdb-samples/smoke.vdb";
+    if (!std::filesystem::exists(path)) GTEST_SKIP() << "no shared data";
+    auto grid = volume::readFloatGrid(path, std::string("density"));
+    for (float iso : {0.01f, 0.2f, 0.5f, 1.f, 3.f}) {
+        auto m = meshOf(*grid, iso);
+        test::expectClosedSurface(m, "smoke iso " + std::to_string(iso));
+    }
+}
+
+TEST(MarchingCubes, SameBytesWhateverTheThreadCount) {
+    auto grid = openvdb::tools::createLevelSetSphere<FloatGrid>(40.f, Vec3f(0.5f), 1.f, 3.f);
+    mesh::TriMesh reference;
+    {
+        tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+        reference = meshOf(*grid);
+    }
+    for (int threads : {2, 3, 8}) {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+        auto m = meshOf(*grid);
+        ASSERT_EQ(m.positions.size(), reference.positions.size());
+        ASSERT_EQ(m.triangles.size(), reference.triangles.size());
+        EXPECT_EQ(0, std::memcmp(m.positions.data(), reference.positions.data(), m.positions.size() * sizeof(glm::vec3)));
+        EXPECT_EQ(0, std::memcmp(m.triangles.data(), reference.triangles.data(), m.triangles.size() * sizeof(glm::uvec3)));
+    }
+}
+
+TEST(MarchingCubes, NormalsPointOutwardAndIndexSpaceWorks) {
+    const Vec3f c(1.f, 2.f, 3.f);
+    auto grid = openvdb::tools::createLevelSetSphere<FloatGrid>(2.f, c, 0.1f, 3.f);
+    volume::MeshingOptions o;
+    o.normals = true;
+    auto m = volume::extractIsosurface(*grid, o);
+    ASSERT_EQ(m.normals.size(), m.positions.size());
+    for (std::size_t i = 0; i < m.positions.size(); ++i) {
+        const glm::vec3 radial = glm::normalize(m.positions[i] - glm::vec3(c.x(), c.y(), c.z()));
+        ASSERT_GT(glm::dot(radial, m.normals[i]), 0.99f);
+    }
+    o.worldSpace = false;
+    auto mi = volume::extractIsosurface(*grid, o);
+    ASSERT_EQ(mi.positions.size(), m.positions.size());
+    EXPECT_NEAR(mi.positions[0].x * 0.1f, m.positions[0].x, 1e-4f);
+
+    // Fog volumes: normals point away from the dense region.
+    auto fog = openvdb::tools::createLevelSetSphere<FloatGrid>(2.f, c, 0.1f, 3.f);
+    openvdb::tools::sdfToFogVolume(*fog);
+    o.worldSpace = true;
+    o.isovalue = 0.5f;
+    auto mf = volume::extractIsosurface(*fog, o);
+    test::expectClosedSurface(mf, "fog sphere");
+    for (std::size_t i = 0; i < mf.positions.size(); ++i)
+        ASSERT_GT(glm::dot(glm::normalize(mf.positions[i] - glm::vec3(c.x(), c.y(), c.z())), mf.normals[i]), 0.9f);
+}
+
+TEST(MarchingCubes, EmptyAndUniformGridsGiveEmptyMeshes) {
+    auto empty = FloatGrid::create(1.f);
+    EXPECT_TRUE(meshOf(*empty).empty());
+    auto full = FloatGrid::create(-1.f);
+    full->setGridClass(openvdb::GRID_LEVEL_SET);
+    full->tree().fill(openvdb::CoordBBox(Coord(0), Coord(20)), -1.f, true);
+    EXPECT_TRUE(meshOf(*full).empty());  // inside everywhere: no surface
+}

@@ -1,0 +1,129 @@
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+#include "core/error.h"
+#include "mesh/check.h"
+#include "mesh/io.h"
+#include "test_util.h"
+
+using namespace isoforge;
+using namespace isoforge::mesh;
+
+namespace {
+TriMesh octahedron() {
+    TriMesh m;
+    m.positions = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    m.triangles = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4}, {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
+    for (auto p : m.positions) m.normals.push_back(p);
+    return m;
+}
+void spit(const std::filesystem::path& p, const std::string& s) {
+    std::ofstream out(p, std::ios::binary);
+    out << s;
+}
+std::string slurp(const std::filesystem::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+std::string errorOf(const std::filesystem::path& p) {
+    try {
+        readMesh(p);
+    } catch (const IoError& e) {
+        return e.what();
+    }
+    return "";
+}
+}  // namespace
+
+TEST(MeshIo, RoundTripsEveryFormat) {
+    const auto dir = test::scratchDir("meshio");
+    const TriMesh m = octahedron();
+    for (const char* name : {"a.ply", "b.obj", "c.stl"}) {
+        writeMesh(dir / name, m);
+        TriMesh back = readMesh(dir / name);
+        ASSERT_EQ(back.triangles.size(), m.triangles.size()) << name;
+        EXPECT_EQ(back.positions.size(), m.positions.size()) << name;
+        // STL stores no shared vertices (the reader welds them in order of appearance): compare corners.
+        for (std::size_t t = 0; t < m.triangles.size(); ++t)
+            for (int k = 0; k < 3; ++k)
+                EXPECT_EQ(back.positions[back.triangles[t][k]], m.positions[m.triangles[t][k]]) << name;
+        EXPECT_TRUE(check(back).isValidClosedSurface()) << name;
+    }
+    writeMesh(dir / "d.ply", m, {.ascii = true});
+    EXPECT_EQ(slurp(dir / "d.ply").rfind("ply\nformat ascii", 0), 0u);
+    TriMesh back = readMesh(dir / "d.ply");
+    EXPECT_EQ(back.positions, m.positions);
+    EXPECT_EQ(back.normals, m.normals);
+    EXPECT_EQ(readMesh(dir / "a.ply").normals, m.normals);
+    EXPECT_THROW(writeMesh(dir / "x.xyz", m), IoError);
+    std::filesystem::remove_all(dir);
+}
+
+TEST(MeshIo, ReadsRealMeshesMadeByOtherTools) {
+    const auto dir = test::sharedData() / "meshes";
+    if (!std::filesystem::exists(dir)) GTEST_SKIP();
+    const auto bunny = check(readMesh(dir / "bunny/bunny.ply"));
+    EXPECT_EQ(bunny.vertices, 35947u);
+    EXPECT_EQ(bunny.triangles, 69451u);
+    EXPECT_GT(bunny.boundaryEdges, 0u);  // the scanned bunny has holes
+    EXPECT_FALSE(bunny.isWatertight());
+
+    const auto cow = check(readMesh(dir / "cow/cow.obj"));
+    EXPECT_TRUE(cow.isWatertight()) << cow.toString();
+    EXPECT_GT(cow.triangles, 3263u);  // quads split into triangles
+
+    const auto vase = check(readMesh(dir / "vase/Vase.stl"));
+    EXPECT_EQ(vase.triangles, 10910u);
+    EXPECT_TRUE(vase.isWatertight()) << vase.toString();
+}
+
+TEST(MeshIo, BadFilesNameTheFileAndThePosition) {
+    const auto dir = test::scratchDir("meshbad");
+    spit(dir / "garbage.obj", "v 0 0 0\nv 1 0 0\nv 0 1 zero\nf 1 2 3\n");
+    EXPECT_NE(errorOf(dir / "garbage.obj").find("garbage.obj:3:"), std::string::npos) << errorOf(dir / "garbage.obj");
+    spit(dir / "index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n");
+    EXPECT_NE(errorOf(dir / "index.obj").find("index.obj:4:"), std::string::npos);
+    spit(dir / "noface.obj", "v 0 0 0\n");
+    EXPECT_NE(errorOf(dir / "noface.obj").find("no faces"), std::string::npos);
+
+    writeMesh(dir / "good.ply", octahedron());
+    const std::string good = slurp(dir / "good.ply");
+    spit(dir / "cut.ply", good.substr(0, good.size() - 7));
+    EXPECT_NE(errorOf(dir / "cut.ply").find("truncated"), std::string::npos) << errorOf(dir / "cut.ply");
+    spit(dir / "header.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 99999999999\nproperty float x\n"
+                             "property float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n");
+    EXPECT_NE(errorOf(dir / "header.ply").find("header.ply:3"), std::string::npos) << errorOf(dir / "header.ply");
+    spit(dir / "magic.ply", "plx\n");
+    EXPECT_NE(errorOf(dir / "magic.ply").find("magic.ply:1:"), std::string::npos);
+    spit(dir / "type.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty quad x\nend_header\n");
+    EXPECT_NE(errorOf(dir / "type.ply").find("type.ply:4:"), std::string::npos) << errorOf(dir / "type.ply");
+    spit(dir / "ascii.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                            "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1\n3 0 1 2\n");
+    EXPECT_NE(errorOf(dir / "ascii.ply").find("ascii.ply:"), std::string::npos);
+    spit(dir / "badidx.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                             "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 5\n");
+    EXPECT_NE(errorOf(dir / "badidx.ply").find("names vertex 5"), std::string::npos) << errorOf(dir / "badidx.ply");
+
+    writeMesh(dir / "good.stl", octahedron());
+    const std::string stl = slurp(dir / "good.stl");
+    spit(dir / "cut.stl", stl.substr(0, stl.size() - 10));
+    EXPECT_NE(errorOf(dir / "cut.stl").find("truncated"), std::string::npos);
+    EXPECT_NE(errorOf(dir / "missing.ply").find("cannot open"), std::string::npos);
+    EXPECT_NE(errorOf(dir / "x.3ds").find("unknown mesh extension"), std::string::npos);
+    std::filesystem::remove_all(dir);
+}
+
+TEST(MeshIo, FailedWritesLeaveNoFileAndKeepTheOldOne) {
+    const auto dir = test::scratchDir("meshatomic");
+    EXPECT_THROW(writeMesh(dir / "missing/dir/a.ply", octahedron()), IoError);
+    spit(dir / "keep.ply", "old contents");
+    // A directory where the file should go: the rename fails, the temporary file is removed.
+    std::filesystem::create_directories(dir / "taken.ply" / "x");
+    EXPECT_THROW(writeMesh(dir / "taken.ply", octahedron()), IoError);
+    EXPECT_EQ(slurp(dir / "keep.ply"), "old contents");
+    int files = 0;
+    for (auto& e : std::filesystem::directory_iterator(dir)) files += e.is_regular_file();
+    EXPECT_EQ(files, 1);  // only keep.ply: no temporary left behind
+    std::filesystem::remove_all(dir);
+}

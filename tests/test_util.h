@@ -1,0 +1,40 @@
+#pragma once
+#include <filesystem>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "mesh/check.h"
+
+namespace isoforge::test {
+
+inline std::filesystem::path sourceDir() { return ISOFORGE_SOURCE_DIR; }
+inline std::filesystem::path sharedData() { return ISOFORGE_SHARED_DATA; }
+
+/// A fresh empty directory for a test's files.
+inline std::filesystem::path scratchDir(const std::string& name) {
+    auto d = std::filesystem::temp_directory_path() / ("isoforge-test-" + name + "-" + std::to_string(::getpid()));
+    std::filesystem::remove_all(d);
+    std::filesystem::create_directories(d);
+    return d;
+}
+
+/// Asserts the mesh is a closed, 2-manifold, consistently and outward oriented surface without
+/// degenerate triangles; returns the report for further checks.
+inline mesh::MeshReport expectClosedSurface(const mesh::TriMesh& m, const std::string& what) {
+    mesh::MeshReport r = mesh::check(m);
+    EXPECT_GT(r.triangles, 0u) << what;
+    EXPECT_EQ(r.boundaryEdges, 0u) << what;
+    EXPECT_EQ(r.nonManifoldEdges, 0u) << what;
+    EXPECT_EQ(r.nonManifoldVertices, 0u) << what;
+    EXPECT_EQ(r.misorientedEdges, 0u) << what;
+    EXPECT_EQ(r.repeatedIndexTriangles, 0u) << what;
+    EXPECT_EQ(r.zeroAreaTriangles, 0u) << what;
+    EXPECT_EQ(r.duplicateTriangles, 0u) << what;
+    EXPECT_EQ(r.usedVertices, r.vertices) << what << ": unreferenced vertices";
+    EXPECT_GT(r.volume, 0.0) << what;
+    EXPECT_TRUE(r.genus().has_value()) << what;
+    return r;
+}
+
+}  // namespace isoforge::test
