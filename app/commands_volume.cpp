@@ -35,7 +35,8 @@ void requireVdb(const std::string& path) {
 }  // namespace
 
 void addInfoCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
-    auto* cmd = app.add_subcommand("info", "Describe the grids of volume files: types, voxel size, active voxels, bounds");
+    auto* cmd =
+        app.add_subcommand("info", "Describe the grids of volume files: types, voxel size, active voxels, bounds");
     auto files = std::make_shared<std::vector<std::string>>();
     cmd->add_option("files", *files, "Volume files (.vdb)")->required();
     cmd->callback([&c, files] {
@@ -84,7 +85,7 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
             TerminalProgress progress;
             volume::MeshingOptions opt;
             opt.isovalue = a->iso;
-            opt.inside = a->inside == "below" ? volume::InsideSide::Below
+            opt.inside = a->inside == "below"   ? volume::InsideSide::Below
                          : a->inside == "above" ? volume::InsideSide::Above
                                                 : volume::InsideSide::Auto;
             opt.normals = a->normals;

@@ -3,10 +3,10 @@
 #include <iostream>
 
 #include <OpenImageIO/oiioversion.h>
-#include <glm/detail/setup.hpp>
 #include <openvdb/version.h>
 #include <tbb/global_control.h>
 #include <tbb/version.h>
+#include <glm/detail/setup.hpp>
 
 #include "app/commands.h"
 #include "core/error.h"
@@ -16,11 +16,12 @@ namespace {
 
 std::string versionText() {
     std::string v = "isoforge " ISOFORGE_VERSION "\n";
-    v += "  OpenVDB " + std::to_string(OPENVDB_LIBRARY_MAJOR_VERSION_NUMBER) + "." + std::to_string(OPENVDB_LIBRARY_MINOR_VERSION_NUMBER) + "." + std::to_string(OPENVDB_LIBRARY_PATCH_VERSION_NUMBER) + ", oneTBB " +
-         std::to_string(TBB_VERSION_MAJOR) + "." + std::to_string(TBB_VERSION_MINOR) + ", " +
-         isoforge::render::embreeVersion() + ", OpenImageIO " + OIIO_VERSION_STRING + ", GLM " +
-         std::to_string(GLM_VERSION_MAJOR) + "." + std::to_string(GLM_VERSION_MINOR) + "." +
-         std::to_string(GLM_VERSION_PATCH);
+    v += "  OpenVDB " + std::to_string(OPENVDB_LIBRARY_MAJOR_VERSION_NUMBER) + "." +
+         std::to_string(OPENVDB_LIBRARY_MINOR_VERSION_NUMBER) + "." +
+         std::to_string(OPENVDB_LIBRARY_PATCH_VERSION_NUMBER) + ", oneTBB " + std::to_string(TBB_VERSION_MAJOR) + "." +
+         std::to_string(TBB_VERSION_MINOR) + ", " + isoforge::render::embreeVersion() + ", OpenImageIO " +
+         OIIO_VERSION_STRING + ", GLM " + std::to_string(GLM_VERSION_MAJOR) + "." + std::to_string(GLM_VERSION_MINOR) +
+         "." + std::to_string(GLM_VERSION_PATCH);
     return v;
 }
 
@@ -28,9 +29,10 @@ std::string versionText() {
 
 int main(int argc, char** argv) {
     using namespace isoforge;
-    CLI::App app{"isoforge: iso-surfaces from sparse volumes, implicit surfaces and CSG scenes.\n"
-                 "Meshes are watertight, manifold and outward-oriented; output is the same whatever the thread count.",
-                 "isoforge"};
+    CLI::App app{
+        "isoforge: iso-surfaces from sparse volumes, implicit surfaces and CSG scenes.\n"
+        "Meshes are watertight, manifold and outward-oriented; output is the same whatever the thread count.",
+        "isoforge"};
     app.require_subcommand(1);
     app.fallthrough();
     app.get_formatter()->column_width(36);
@@ -39,8 +41,9 @@ int main(int argc, char** argv) {
     app.add_flag("-q,--quiet", global.quiet, "No progress and no summary; errors only");
     bool showVersion = false;
     app.add_flag("--version", showVersion, "Print the version of isoforge and its libraries, then exit");
-    app.footer("Run 'isoforge COMMAND --help' for a command's options.\n"
-               "Exit status: 0 success, 1 bad input (message on stderr), 2 usage error.");
+    app.footer(
+        "Run 'isoforge COMMAND --help' for a command's options.\n"
+        "Exit status: 0 success, 1 bad input (message on stderr), 2 usage error.");
 
     app::Commands commands;
     app::addInfoCommand(app, global, commands);

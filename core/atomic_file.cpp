@@ -1,10 +1,10 @@
 #include "core/atomic_file.h"
 
-#include <cerrno>
-#include <cstring>
-#include <cstdlib>
 #include <sys/stat.h>
 #include <unistd.h>
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
 
 #include "core/error.h"
 
@@ -16,8 +16,7 @@ AtomicFile::AtomicFile(std::filesystem::path target) : target_(std::move(target)
     std::string pattern = (dir / ("." + target_.filename().string() + ".tmp.XXXXXX")).string();
     int fd = ::mkstemp(pattern.data());
     if (fd < 0)
-        throw IoError(target_.string() + ": cannot create a file in '" + dir.string() + "': " +
-                      std::strerror(errno));
+        throw IoError(target_.string() + ": cannot create a file in '" + dir.string() + "': " + std::strerror(errno));
     ::fchmod(fd, 0644);
     temp_ = pattern;
     file_ = ::fdopen(fd, "wb");

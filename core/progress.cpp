@@ -14,8 +14,7 @@ void TerminalProgress::begin(const std::string& stage) {
 
 void TerminalProgress::update(std::size_t done, std::size_t total) {
     if (!enabled_ || total == 0) return;
-    auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - start_)
-                  .count();
+    auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - start_).count();
     long long last = lastDrawMs_.load(std::memory_order_relaxed);
     if (ms - last < 100 || !lastDrawMs_.compare_exchange_strong(last, ms)) return;
     int pct = static_cast<int>(100.0 * static_cast<double>(done) / static_cast<double>(total));

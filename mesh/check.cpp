@@ -8,8 +8,8 @@
 #include <sstream>
 #include <vector>
 
-#include <glm/geometric.hpp>
 #include <tbb/parallel_sort.h>
+#include <glm/geometric.hpp>
 
 namespace isoforge::mesh {
 
@@ -37,7 +37,7 @@ struct HalfEdge {
     std::uint64_t key;  // (min vertex << 32) | max vertex
     std::uint32_t tri;
     std::uint8_t corner;
-    bool forward;       // from == min vertex
+    bool forward;  // from == min vertex
 };
 
 }  // namespace
@@ -149,7 +149,8 @@ MeshReport check(const TriMesh& mesh) {
             if (corners.find(c) == c) ++fans[mesh.triangles[i][k]];
         }
     }
-    r.nonManifoldVertices = static_cast<std::size_t>(std::count_if(fans.begin(), fans.end(), [](auto f) { return f > 1; }));
+    r.nonManifoldVertices =
+        static_cast<std::size_t>(std::count_if(fans.begin(), fans.end(), [](auto f) { return f > 1; }));
 
     // Components and their volumes.
     std::vector<double> componentVolume(nv, 0.0);
@@ -186,9 +187,11 @@ std::string MeshReport::toString() const {
     s << "\noriented        " << yesNo(isOriented());
     if (misorientedEdges) s << "  (" << misorientedEdges << " edges traversed twice the same way)";
     s << "\noutward         " << yesNo(volume > 0.0);
-    if (negativeComponents) s << "  (" << negativeComponents << " components enclose negative volume: cavities or inside-out)";
+    if (negativeComponents)
+        s << "  (" << negativeComponents << " components enclose negative volume: cavities or inside-out)";
     s << "\ndegenerate      ";
-    if (!hasDegenerates()) s << "none";
+    if (!hasDegenerates())
+        s << "none";
     else {
         s << "YES:";
         if (repeatedIndexTriangles) s << " " << repeatedIndexTriangles << " repeated-index";
@@ -198,8 +201,10 @@ std::string MeshReport::toString() const {
     }
     s << "\ncomponents      " << components;
     s << "\neuler           " << eulerCharacteristic;
-    if (auto g = genus()) s << "\ngenus           " << *g;
-    else s << "\ngenus           n/a (not a closed oriented manifold)";
+    if (auto g = genus())
+        s << "\ngenus           " << *g;
+    else
+        s << "\ngenus           n/a (not a closed oriented manifold)";
     s.precision(7);
     s << "\narea            " << area << "\nvolume          " << volume;
     if (!isWatertight()) s << " (not closed: meaningless)";

@@ -12,23 +12,23 @@
 namespace isoforge::mesh {
 
 struct MeshReport {
-    std::size_t vertices = 0;            ///< positions in the mesh
-    std::size_t usedVertices = 0;        ///< positions referenced by at least one triangle
+    std::size_t vertices = 0;      ///< positions in the mesh
+    std::size_t usedVertices = 0;  ///< positions referenced by at least one triangle
     std::size_t triangles = 0;
-    std::size_t edges = 0;               ///< distinct undirected edges
-    std::size_t boundaryEdges = 0;       ///< edges with exactly one triangle
-    std::size_t nonManifoldEdges = 0;    ///< edges with three or more triangles
-    std::size_t misorientedEdges = 0;    ///< manifold edges whose two triangles traverse them the same way
-    std::size_t nonManifoldVertices = 0; ///< vertices whose triangles form more than one fan
+    std::size_t edges = 0;                   ///< distinct undirected edges
+    std::size_t boundaryEdges = 0;           ///< edges with exactly one triangle
+    std::size_t nonManifoldEdges = 0;        ///< edges with three or more triangles
+    std::size_t misorientedEdges = 0;        ///< manifold edges whose two triangles traverse them the same way
+    std::size_t nonManifoldVertices = 0;     ///< vertices whose triangles form more than one fan
     std::size_t repeatedIndexTriangles = 0;  ///< a triangle naming one vertex twice
-    std::size_t zeroAreaTriangles = 0;   ///< distinct vertices but (numerically) no area
-    std::size_t duplicateTriangles = 0;  ///< same three vertices as an earlier triangle
-    std::size_t outOfRangeIndices = 0;   ///< triangles naming a vertex that does not exist
-    std::size_t components = 0;          ///< connected through shared vertices
+    std::size_t zeroAreaTriangles = 0;       ///< distinct vertices but (numerically) no area
+    std::size_t duplicateTriangles = 0;      ///< same three vertices as an earlier triangle
+    std::size_t outOfRangeIndices = 0;       ///< triangles naming a vertex that does not exist
+    std::size_t components = 0;              ///< connected through shared vertices
     std::size_t negativeComponents = 0;  ///< closed components with negative enclosed volume (cavities, or inside-out)
     long long eulerCharacteristic = 0;   ///< V - E + F over used vertices
     double area = 0.0;
-    double volume = 0.0;                 ///< signed; meaningful when watertight
+    double volume = 0.0;  ///< signed; meaningful when watertight
 
     bool isWatertight() const { return boundaryEdges == 0 && nonManifoldEdges == 0 && outOfRangeIndices == 0; }
     bool isEdgeManifold() const { return nonManifoldEdges == 0; }

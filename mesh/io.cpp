@@ -31,7 +31,8 @@ std::string lowerExtension(const std::filesystem::path& p) {
 
 std::string readWholeFile(const std::filesystem::path& path) {
     std::error_code ec;
-    if (std::filesystem::is_directory(path, ec)) throw IoError(path.string() + ": is a directory, expected a mesh file");
+    if (std::filesystem::is_directory(path, ec))
+        throw IoError(path.string() + ": is a directory, expected a mesh file");
     std::ifstream in(path, std::ios::binary);
     if (!in) throw IoError(path.string() + ": cannot open: " + std::strerror(errno));
     std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -55,8 +56,10 @@ public:
     }
     void skipWhitespace() {  // across lines
         while (pos_ < text_.size() && std::isspace(static_cast<unsigned char>(text_[pos_]))) {
-            if (text_[pos_] == '\n') newLine();
-            else ++pos_;
+            if (text_[pos_] == '\n')
+                newLine();
+            else
+                ++pos_;
         }
     }
     bool atLineEnd() {
@@ -126,10 +129,18 @@ std::optional<PlyType> plyType(std::string_view s) {
 }
 std::size_t plySize(PlyType t) {
     switch (t) {
-        case PlyType::Int8: case PlyType::UInt8: return 1;
-        case PlyType::Int16: case PlyType::UInt16: return 2;
-        case PlyType::Int32: case PlyType::UInt32: case PlyType::Float32: return 4;
-        case PlyType::Float64: return 8;
+        case PlyType::Int8:
+        case PlyType::UInt8:
+            return 1;
+        case PlyType::Int16:
+        case PlyType::UInt16:
+            return 2;
+        case PlyType::Int32:
+        case PlyType::UInt32:
+        case PlyType::Float32:
+            return 4;
+        case PlyType::Float64:
+            return 8;
     }
     return 0;
 }
@@ -150,7 +161,10 @@ struct PlyElement {
 class BinaryReader {
 public:
     BinaryReader(std::string_view data, std::size_t pos, bool bigEndian, std::string file)
-        : data_(data), pos_(pos), swap_(bigEndian != (std::endian::native == std::endian::big)), file_(std::move(file)) {}
+        : data_(data),
+          pos_(pos),
+          swap_(bigEndian != (std::endian::native == std::endian::big)),
+          file_(std::move(file)) {}
     double read(PlyType t, const char* what) {
         std::size_t n = plySize(t);
         if (pos_ + n > data_.size())
@@ -161,14 +175,43 @@ public:
         if (swap_) std::reverse(b, b + n);
         pos_ += n;
         switch (t) {
-            case PlyType::Int8: { std::int8_t v; std::memcpy(&v, b, 1); return v; }
-            case PlyType::UInt8: return b[0];
-            case PlyType::Int16: { std::int16_t v; std::memcpy(&v, b, 2); return v; }
-            case PlyType::UInt16: { std::uint16_t v; std::memcpy(&v, b, 2); return v; }
-            case PlyType::Int32: { std::int32_t v; std::memcpy(&v, b, 4); return v; }
-            case PlyType::UInt32: { std::uint32_t v; std::memcpy(&v, b, 4); return v; }
-            case PlyType::Float32: { float v; std::memcpy(&v, b, 4); return v; }
-            case PlyType::Float64: { double v; std::memcpy(&v, b, 8); return v; }
+            case PlyType::Int8: {
+                std::int8_t v;
+                std::memcpy(&v, b, 1);
+                return v;
+            }
+            case PlyType::UInt8:
+                return b[0];
+            case PlyType::Int16: {
+                std::int16_t v;
+                std::memcpy(&v, b, 2);
+                return v;
+            }
+            case PlyType::UInt16: {
+                std::uint16_t v;
+                std::memcpy(&v, b, 2);
+                return v;
+            }
+            case PlyType::Int32: {
+                std::int32_t v;
+                std::memcpy(&v, b, 4);
+                return v;
+            }
+            case PlyType::UInt32: {
+                std::uint32_t v;
+                std::memcpy(&v, b, 4);
+                return v;
+            }
+            case PlyType::Float32: {
+                float v;
+                std::memcpy(&v, b, 4);
+                return v;
+            }
+            case PlyType::Float64: {
+                double v;
+                std::memcpy(&v, b, 8);
+                return v;
+            }
         }
         return 0;
     }
@@ -193,20 +236,30 @@ TriMesh readPly(const std::filesystem::path& path, const std::string& data) {
     for (;;) {
         if (cur.atEnd()) cur.fail("file ends inside the header: expected 'end_header'");
         std::string_view kw = cur.word();
-        if (kw.empty()) { cur.nextLine(); continue; }
+        if (kw.empty()) {
+            cur.nextLine();
+            continue;
+        }
         if (kw == "end_header") {
             // The body starts right after this line's newline.
             while (!cur.atEnd() && cur.peek() != '\n') cur.advance();
             if (!cur.atEnd()) cur.advance();
             break;
         }
-        if (kw == "comment" || kw == "obj_info") { cur.nextLine(); continue; }
+        if (kw == "comment" || kw == "obj_info") {
+            cur.nextLine();
+            continue;
+        }
         if (kw == "format") {
             std::string_view f = cur.word();
-            if (f == "ascii") format = Format::Ascii;
-            else if (f == "binary_little_endian") format = Format::BinaryLE;
-            else if (f == "binary_big_endian") format = Format::BinaryBE;
-            else cur.fail("expected ascii, binary_little_endian or binary_big_endian, found '" + std::string(f) + "'");
+            if (f == "ascii")
+                format = Format::Ascii;
+            else if (f == "binary_little_endian")
+                format = Format::BinaryLE;
+            else if (f == "binary_big_endian")
+                format = Format::BinaryBE;
+            else
+                cur.fail("expected ascii, binary_little_endian or binary_big_endian, found '" + std::string(f) + "'");
             haveFormat = true;
         } else if (kw == "element") {
             PlyElement e;
@@ -222,12 +275,15 @@ TriMesh readPly(const std::filesystem::path& path, const std::string& data) {
             if (t == "list") {
                 p.isList = true;
                 auto ct = plyType(cur.word());
-                if (!ct || *ct == PlyType::Float32 || *ct == PlyType::Float64) cur.fail("expected an integer list count type");
+                if (!ct || *ct == PlyType::Float32 || *ct == PlyType::Float64)
+                    cur.fail("expected an integer list count type");
                 p.countType = *ct;
                 t = cur.word();
             }
             auto ty = plyType(t);
-            if (!ty) cur.fail("expected a property type (char uchar short ushort int uint float double), found '" + std::string(t) + "'");
+            if (!ty)
+                cur.fail("expected a property type (char uchar short ushort int uint float double), found '" +
+                         std::string(t) + "'");
             p.type = *ty;
             p.name = std::string(cur.word());
             if (p.name.empty()) cur.fail("expected a property name");
@@ -262,8 +318,18 @@ TriMesh readPly(const std::filesystem::path& path, const std::string& data) {
         for (int k = 0; k < static_cast<int>(e.properties.size()); ++k) {
             const std::string& n = e.properties[k].name;
             if (isVertex && !e.properties[k].isList) {
-                if (n == "x") ix = k; else if (n == "y") iy = k; else if (n == "z") iz = k;
-                else if (n == "nx") inx = k; else if (n == "ny") iny = k; else if (n == "nz") inz = k;
+                if (n == "x")
+                    ix = k;
+                else if (n == "y")
+                    iy = k;
+                else if (n == "z")
+                    iz = k;
+                else if (n == "nx")
+                    inx = k;
+                else if (n == "ny")
+                    iny = k;
+                else if (n == "nz")
+                    inz = k;
             }
             if (isFace && e.properties[k].isList && (n == "vertex_indices" || n == "vertex_index")) iface = k;
         }
@@ -303,9 +369,8 @@ TriMesh readPly(const std::filesystem::path& path, const std::string& data) {
                     double v = readValue(p.type);
                     if (k != iface) continue;
                     if (v < 0 || v >= static_cast<double>(mesh.positions.size()) || v != std::floor(v)) {
-                        const std::string where = format == Format::Ascii
-                                                      ? ":" + std::to_string(text.line())
-                                                      : ": byte " + std::to_string(bin.position());
+                        const std::string where = format == Format::Ascii ? ":" + std::to_string(text.line())
+                                                                          : ": byte " + std::to_string(bin.position());
                         throw IoError(file + where + ": " + e.name + " " + std::to_string(i) + " names vertex " +
                                       std::to_string(static_cast<long long>(v)) + ", but there are " +
                                       std::to_string(mesh.positions.size()) + " vertices");
@@ -391,7 +456,8 @@ TriMesh readObj(const std::filesystem::path& path, const std::string& data) {
         cur.skipSpaces();
         std::string_view kw = cur.word();
         if (kw == "v") {
-            float x = cur.number<float>("vertex x"), y = cur.number<float>("vertex y"), z = cur.number<float>("vertex z");
+            float x = cur.number<float>("vertex x"), y = cur.number<float>("vertex y"),
+                  z = cur.number<float>("vertex z");
             mesh.positions.emplace_back(x, y, z);
         } else if (kw == "f") {
             face.clear();
@@ -423,10 +489,11 @@ void writeObj(const std::filesystem::path& path, const TriMesh& mesh) {
         out.write(buf, static_cast<std::size_t>(std::snprintf(buf, sizeof buf, "v %.9g %.9g %.9g\n", p.x, p.y, p.z)));
     if (normals)
         for (const glm::vec3& n : mesh.normals)
-            out.write(buf, static_cast<std::size_t>(std::snprintf(buf, sizeof buf, "vn %.6g %.6g %.6g\n", n.x, n.y, n.z)));
+            out.write(buf,
+                      static_cast<std::size_t>(std::snprintf(buf, sizeof buf, "vn %.6g %.6g %.6g\n", n.x, n.y, n.z)));
     for (const glm::uvec3& t : mesh.triangles) {
-        int n = normals ? std::snprintf(buf, sizeof buf, "f %u//%u %u//%u %u//%u\n", t.x + 1, t.x + 1, t.y + 1,
-                                        t.y + 1, t.z + 1, t.z + 1)
+        int n = normals ? std::snprintf(buf, sizeof buf, "f %u//%u %u//%u %u//%u\n", t.x + 1, t.x + 1, t.y + 1, t.y + 1,
+                                        t.z + 1, t.z + 1)
                         : std::snprintf(buf, sizeof buf, "f %u %u %u\n", t.x + 1, t.y + 1, t.z + 1);
         out.write(buf, static_cast<std::size_t>(n));
     }
@@ -469,10 +536,12 @@ TriMesh readStl(const std::filesystem::path& path, const std::string& data) {
         while (!cur.atEnd()) {
             std::string_view kw = cur.word();
             if (kw == "vertex") {
-                float x = cur.number<float>("vertex x"), y = cur.number<float>("vertex y"), z = cur.number<float>("vertex z");
+                float x = cur.number<float>("vertex x"), y = cur.number<float>("vertex y"),
+                      z = cur.number<float>("vertex z");
                 corner.emplace_back(x, y, z);
             } else if (kw == "endfacet") {
-                if (corner.size() != 3) cur.fail("facet has " + std::to_string(corner.size()) + " vertices, expected 3");
+                if (corner.size() != 3)
+                    cur.fail("facet has " + std::to_string(corner.size()) + " vertices, expected 3");
                 auto b = static_cast<std::uint32_t>(mesh.positions.size());
                 mesh.positions.insert(mesh.positions.end(), corner.begin(), corner.end());
                 mesh.triangles.emplace_back(b, b + 1, b + 2);
@@ -545,10 +614,14 @@ TriMesh readMesh(const std::filesystem::path& path) {
 
 void writeMesh(const std::filesystem::path& path, const TriMesh& mesh, const WriteOptions& options) {
     const std::string e = lowerExtension(path);
-    if (e == ".ply") writePly(path, mesh, options.ascii);
-    else if (e == ".obj") writeObj(path, mesh);
-    else if (e == ".stl") writeStl(path, mesh);
-    else throw IoError(path.string() + ": unknown mesh extension '" + e + "' (expected .ply, .obj or .stl)");
+    if (e == ".ply")
+        writePly(path, mesh, options.ascii);
+    else if (e == ".obj")
+        writeObj(path, mesh);
+    else if (e == ".stl")
+        writeStl(path, mesh);
+    else
+        throw IoError(path.string() + ": unknown mesh extension '" + e + "' (expected .ply, .obj or .stl)");
 }
 
 }  // namespace isoforge::mesh

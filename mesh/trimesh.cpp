@@ -5,9 +5,9 @@
 #include <cstring>
 #include <numeric>
 
-#include <glm/geometric.hpp>
-#include <tbb/parallel_reduce.h>
 #include <tbb/blocked_range.h>
+#include <tbb/parallel_reduce.h>
+#include <glm/geometric.hpp>
 
 namespace isoforge::mesh {
 
@@ -46,9 +46,9 @@ double area(const TriMesh& mesh) {
 }
 
 double signedVolume(const TriMesh& mesh) {
-    return sumOverTriangles(mesh, [](const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
-               return glm::dot(a, glm::cross(b, c));
-           }) / 6.0;
+    return sumOverTriangles(mesh, [](const glm::dvec3& a, const glm::dvec3& b,
+                                     const glm::dvec3& c) { return glm::dot(a, glm::cross(b, c)); }) /
+           6.0;
 }
 
 std::size_t weldIdenticalPositions(TriMesh& mesh) {

@@ -1,8 +1,8 @@
 #include "render/image.h"
 
+#include <unistd.h>
 #include <algorithm>
 #include <cmath>
-#include <unistd.h>
 
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imagebufalgo.h>
@@ -13,7 +13,9 @@
 namespace isoforge::render {
 
 namespace {
-bool isFloatFormat(const std::string& ext) { return ext == ".exr" || ext == ".hdr"; }
+bool isFloatFormat(const std::string& ext) {
+    return ext == ".exr" || ext == ".hdr";
+}
 std::string lower(std::string s) {
     std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
     return s;
@@ -23,7 +25,8 @@ std::string lower(std::string s) {
 void writeImage(const std::filesystem::path& path, const Image& image) {
     const std::string ext = lower(path.extension().string());
     const bool floating = isFloatFormat(ext);
-    OIIO::ImageSpec spec(image.width, image.height, image.channels, floating ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::UINT8);
+    OIIO::ImageSpec spec(image.width, image.height, image.channels,
+                         floating ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::UINT8);
     if (!image.channelNames.empty()) spec.channelnames = image.channelNames;
     if (image.channels == 4) spec.alpha_channel = 3;
     spec.attribute("oiio:ColorSpace", floating ? "Linear" : "sRGB");

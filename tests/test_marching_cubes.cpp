@@ -2,7 +2,6 @@
 #include <functional>
 #include <random>
 
-#include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 #include <openvdb/tools/Composite.h>
 #include <openvdb/tools/LevelSetPlatonic.h>
@@ -12,6 +11,7 @@
 #include <openvdb/tools/SignedFloodFill.h>
 #include <openvdb/tools/VolumeToMesh.h>
 #include <tbb/global_control.h>
+#include <glm/geometric.hpp>
 
 #include "test_util.h"
 #include "volume/marching_cubes.h"
@@ -29,8 +29,8 @@ struct Init {
 } init;
 
 /// A narrow-band level set of an analytic signed distance function (world units), inside filled.
-FloatGrid::Ptr levelSetFromSdf(const std::function<double(const openvdb::Vec3d&)>& sdf, double halfExtent,
-                               float voxel, float halfWidth = 3.f) {
+FloatGrid::Ptr levelSetFromSdf(const std::function<double(const openvdb::Vec3d&)>& sdf, double halfExtent, float voxel,
+                               float halfWidth = 3.f) {
     auto grid = FloatGrid::create(halfWidth * voxel);
     grid->setTransform(openvdb::math::Transform::createLinearTransform(voxel));
     grid->setGridClass(openvdb::GRID_LEVEL_SET);
@@ -82,7 +82,8 @@ TEST(MarchingCubes, SpheresAtSeveralResolutionsAndCentres) {
             // Vertices lie on the sphere to a small fraction of a voxel.
             auto m = meshOf(*grid);
             double worst = 0;
-            for (const auto& p : m.positions) worst = std::max(worst, std::abs(glm::length(p - glm::vec3(c.x(), c.y(), c.z())) - 1.5));
+            for (const auto& p : m.positions)
+                worst = std::max(worst, std::abs(glm::length(p - glm::vec3(c.x(), c.y(), c.z())) - 1.5));
             EXPECT_LT(worst, 0.1 * voxel) << what;
         }
 }
@@ -129,11 +130,13 @@ TEST(MarchingCubes, CsgOfLevelSets) {
     EXPECT_EQ(r.components, 1u);
 
     // A sphere with a cylinder drilled through it: genus 1.
-    auto s = levelSetFromSdf([](const openvdb::Vec3d& p) {
-        const double sphere = p.length() - 1.0;
-        const double cyl = std::sqrt(p.x() * p.x() + p.y() * p.y()) - 0.4;
-        return std::max(sphere, -cyl);
-    }, 1.1, 0.03f);
+    auto s = levelSetFromSdf(
+        [](const openvdb::Vec3d& p) {
+            const double sphere = p.length() - 1.0;
+            const double cyl = std::sqrt(p.x() * p.x() + p.y() * p.y()) - 0.4;
+            return std::max(sphere, -cyl);
+        },
+        1.1, 0.03f);
     r = test::expectClosedSurface(meshOf(*s), "drilled sphere");
     EXPECT_EQ(*r.genus(), 1);
 }
@@ -159,7 +162,8 @@ TEST(MarchingCubes, AgreesWithOpenVdbVolumeToMesh) {
 
 TEST(MarchingCubes, SingleVoxelAndLeafBoundaries) {
     // One inside voxel: an octahedron of 8 triangles around it.
-    for (Coord c : {Coord(0, 0, 0), Coord(7, 7, 7), Coord(8, 8, 8), Coord(-1, -1, -1), Coord(-8, 7, 8), Coord(15, -9, 0)}) {
+    for (Coord c :
+         {Coord(0, 0, 0), Coord(7, 7, 7), Coord(8, 8, 8), Coord(-1, -1, -1), Coord(-8, 7, 8), Coord(15, -9, 0)}) {
         auto grid = FloatGrid::create(1.f);
         grid->setGridClass(openvdb::GRID_LEVEL_SET);
         grid->tree().setValue(c, -1.f);
@@ -212,7 +216,7 @@ TEST(MarchingCubes, FogVolumesThinSheetsAndActiveTiles) {
     // Dense regions stored as active tiles, touching leaves and background.
     auto fog = FloatGrid::create(0.f);
     fog->setGridClass(openvdb::GRID_FOG_VOLUME);
-    fog->tree().fill(openvdb::CoordBBox(Coord(0), Coord(255)), 1.f, true);       // 128^3 and 8^3 tiles
+    fog->tree().fill(openvdb::CoordBBox(Coord(0), Coord(255)), 1.f, true);                // 128^3 and 8^3 tiles
     fog->tree().fill(openvdb::CoordBBox(Coord(256, 0, 0), Coord(263, 7, 7)), 1.f, true);  // leaf-sized tile
     fog->tree().fill(openvdb::CoordBBox(Coord(-300, 3, 5), Coord(-280, 20, 9)), 0.7f, true);
     fog->tree().setValue(Coord(100, 256, 100), 1.f);  // a voxel touching the big tile's face
@@ -252,8 +256,10 @@ TEST(MarchingCubes, SameBytesWhateverTheThreadCount) {
         auto m = meshOf(*grid);
         ASSERT_EQ(m.positions.size(), reference.positions.size());
         ASSERT_EQ(m.triangles.size(), reference.triangles.size());
-        EXPECT_EQ(0, std::memcmp(m.positions.data(), reference.positions.data(), m.positions.size() * sizeof(glm::vec3)));
-        EXPECT_EQ(0, std::memcmp(m.triangles.data(), reference.triangles.data(), m.triangles.size() * sizeof(glm::uvec3)));
+        EXPECT_EQ(0,
+                  std::memcmp(m.positions.data(), reference.positions.data(), m.positions.size() * sizeof(glm::vec3)));
+        EXPECT_EQ(0,
+                  std::memcmp(m.triangles.data(), reference.triangles.data(), m.triangles.size() * sizeof(glm::uvec3)));
     }
 }
 

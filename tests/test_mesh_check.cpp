@@ -1,5 +1,5 @@
-#include <cmath>
 #include <gtest/gtest.h>
+#include <cmath>
 
 #include "mesh/check.h"
 
@@ -101,11 +101,11 @@ TEST(MeshCheck, FindsNonManifoldEdgesAndVertices) {
 
 TEST(MeshCheck, FindsDegenerateTriangles) {
     TriMesh m = tetrahedron();
-    m.triangles.emplace_back(0, 0, 1);                   // repeated index
+    m.triangles.emplace_back(0, 0, 1);  // repeated index
     m.positions.emplace_back(2.f, 0.f, 0.f);
-    m.triangles.emplace_back(0, 1, 4);                   // collinear: zero area
-    m.triangles.push_back(m.triangles[1]);               // duplicate
-    m.triangles.emplace_back(0, 1, 99);                  // out of range
+    m.triangles.emplace_back(0, 1, 4);      // collinear: zero area
+    m.triangles.push_back(m.triangles[1]);  // duplicate
+    m.triangles.emplace_back(0, 1, 99);     // out of range
     const auto r = check(m);
     EXPECT_EQ(r.repeatedIndexTriangles, 1u);
     EXPECT_EQ(r.zeroAreaTriangles, 1u);

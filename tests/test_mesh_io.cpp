@@ -91,18 +91,21 @@ TEST(MeshIo, BadFilesNameTheFileAndThePosition) {
     const std::string good = slurp(dir / "good.ply");
     spit(dir / "cut.ply", good.substr(0, good.size() - 7));
     EXPECT_NE(errorOf(dir / "cut.ply").find("truncated"), std::string::npos) << errorOf(dir / "cut.ply");
-    spit(dir / "header.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 99999999999\nproperty float x\n"
-                             "property float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n");
+    spit(dir / "header.ply",
+         "ply\nformat binary_little_endian 1.0\nelement vertex 99999999999\nproperty float x\n"
+         "property float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n");
     EXPECT_NE(errorOf(dir / "header.ply").find("header.ply:3"), std::string::npos) << errorOf(dir / "header.ply");
     spit(dir / "magic.ply", "plx\n");
     EXPECT_NE(errorOf(dir / "magic.ply").find("magic.ply:1:"), std::string::npos);
     spit(dir / "type.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty quad x\nend_header\n");
     EXPECT_NE(errorOf(dir / "type.ply").find("type.ply:4:"), std::string::npos) << errorOf(dir / "type.ply");
-    spit(dir / "ascii.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
-                            "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1\n3 0 1 2\n");
+    spit(dir / "ascii.ply",
+         "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+         "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1\n3 0 1 2\n");
     EXPECT_NE(errorOf(dir / "ascii.ply").find("ascii.ply:"), std::string::npos);
-    spit(dir / "badidx.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
-                             "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 5\n");
+    spit(dir / "badidx.ply",
+         "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+         "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 5\n");
     EXPECT_NE(errorOf(dir / "badidx.ply").find("names vertex 5"), std::string::npos) << errorOf(dir / "badidx.ply");
 
     writeMesh(dir / "good.stl", octahedron());

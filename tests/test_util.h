@@ -8,8 +8,12 @@
 
 namespace isoforge::test {
 
-inline std::filesystem::path sourceDir() { return ISOFORGE_SOURCE_DIR; }
-inline std::filesystem::path sharedData() { return ISOFORGE_SHARED_DATA; }
+inline std::filesystem::path sourceDir() {
+    return ISOFORGE_SOURCE_DIR;
+}
+inline std::filesystem::path sharedData() {
+    return ISOFORGE_SHARED_DATA;
+}
 
 /// A fresh empty directory for a test's files.
 inline std::filesystem::path scratchDir(const std::string& name) {

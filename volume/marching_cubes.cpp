@@ -1,19 +1,27 @@
 #include "volume/marching_cubes.h"
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <bit>
 #include <chrono>
 #include <cstdint>
+#include <cstdlib>
 #include <memory>
 #include <numeric>
 #include <string>
 #include <vector>
 
-#include <glm/geometric.hpp>
+#include <sys/mman.h>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
+#include <glm/geometric.hpp>
 
 #include "core/error.h"
 #include "volume/mc_table.h"
@@ -32,7 +40,9 @@ constexpr float kEdgeMargin = 1e-3f;  // vertices stay this far (in voxels) from
 constexpr int kKeyBits = 21;
 constexpr std::uint64_t kKeyMask = (std::uint64_t{1} << kKeyBits) - 1;
 
-double secondsSince(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+double secondsSince(Clock::time_point t) {
+    return std::chrono::duration<double>(Clock::now() - t).count();
+}
 
 /// Block origins packed into 64-bit keys (21 bits per axis, in units of 8 voxels, relative to a
 /// base), so that sorting keys sorts blocks lexicographically by (x, y, z).
@@ -52,35 +62,45 @@ struct KeyPacker {
 /// Open-addressing map from block key to block index.
 class BlockIndex {
 public:
+    /// Built in parallel: keys are unique, so a compare-and-swap per key is all it takes; where a key
+    /// lands may vary with scheduling, what find() answers does not.
     explicit BlockIndex(const std::vector<std::uint64_t>& keys) {
         std::size_t cap = 16;
         while (cap < 2 * keys.size()) cap <<= 1;
         shift_ = 64 - std::countr_zero(cap);
-        slots_.assign(cap, Slot{kEmpty, 0});
-        for (std::size_t i = 0; i < keys.size(); ++i) {
-            std::size_t h = hash(keys[i]);
-            while (slots_[h].key != kEmpty) h = (h + 1) & (cap - 1);
-            slots_[h] = {keys[i], static_cast<std::uint32_t>(i)};
-        }
+        mask_ = cap - 1;
+        keys_.reset(new std::atomic<std::uint64_t>[cap]);
+        index_.reset(new std::uint32_t[cap]);
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cap, 1 << 14), [&](const auto& r) {
+            for (std::size_t i = r.begin(); i != r.end(); ++i) keys_[i].store(kEmpty, std::memory_order_relaxed);
+        });
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, keys.size(), 1 << 12), [&](const auto& r) {
+            for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                for (std::size_t h = hash(keys[i]);; h = (h + 1) & mask_) {
+                    std::uint64_t expected = kEmpty;
+                    if (keys_[h].compare_exchange_strong(expected, keys[i], std::memory_order_relaxed)) {
+                        index_[h] = static_cast<std::uint32_t>(i);
+                        break;
+                    }
+                }
+            }
+        });  // parallel_for's end synchronizes: find() sees every key and index
     }
     std::int64_t find(std::uint64_t key) const {
-        std::size_t h = hash(key);
-        while (slots_[h].key != kEmpty) {
-            if (slots_[h].key == key) return slots_[h].index;
-            h = (h + 1) & (slots_.size() - 1);
+        for (std::size_t h = hash(key);; h = (h + 1) & mask_) {
+            const std::uint64_t k = keys_[h].load(std::memory_order_relaxed);
+            if (k == key) return index_[h];
+            if (k == kEmpty) return -1;
         }
-        return -1;
     }
 
 private:
     static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
-    struct Slot {
-        std::uint64_t key;
-        std::uint32_t index;
-    };
     std::size_t hash(std::uint64_t k) const { return static_cast<std::size_t>((k * 0x9E3779B97F4A7C15ull) >> shift_); }
     int shift_ = 60;
-    std::vector<Slot> slots_;
+    std::size_t mask_ = 0;
+    std::unique_ptr<std::atomic<std::uint64_t>[]> keys_;
+    std::unique_ptr<std::uint32_t[]> index_;
 };
 
 /// The eight 8^3 regions a block of cells reads: itself and its +x, +y, +z neighbours (bit i of the
@@ -100,6 +120,9 @@ struct Sources {
             }
         }
     }
+    /// True if all eight regions are constants on the same side of the iso-value.
+    template <bool Below>
+    bool isUniform(float iso) const;
     /// Value at block-local (x, y, z), each in [0, 8].
     float value(int x, int y, int z) const {
         const int i = (x >> 3) | ((y >> 3) << 1) | ((z >> 3) << 2);
@@ -107,48 +130,188 @@ struct Sources {
     }
 };
 
-/// Per-block state kept between the passes.
+/// Bit counts of bytes (x86-64's baseline has no popcnt instruction; a table beats libgcc's call).
+constexpr std::array<std::uint8_t, 256> kPopcount8 = [] {
+    std::array<std::uint8_t, 256> t{};
+    for (int i = 0; i < 256; ++i)
+        t[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(std::popcount(static_cast<unsigned>(i)));
+    return t;
+}();
+inline std::uint32_t popcount8(std::uint32_t byte) {
+    return kPopcount8[byte & 0xFFu];
+}
+
+/// Bit z of a 9-bit column moved to bit 4z: four spread columns, shifted by 0..3 and or-ed, give a
+/// word whose byte at bit 4z is the case code of the cell at z.
+constexpr std::array<std::uint64_t, 512> kSpread9 = [] {
+    std::array<std::uint64_t, 512> t{};
+    for (int m = 0; m < 512; ++m)
+        for (int z = 0; z < 9; ++z)
+            if ((m >> z) & 1) t[static_cast<std::size_t>(m)] |= std::uint64_t{1} << (4 * z);
+    return t;
+}();
+constexpr std::uint64_t kAllCorners = 0xFFFFFFFFFull;  // 36 bits
+
+/// Vertex indices of a block's edges, by slot axis * 729 + x * 81 + y * 9 + z (x, y, z in [0, 8]).
+constexpr int kSlots = 3 * 729;
+constexpr std::array<int, 12> kEdgeSlot = [] {
+    std::array<int, 12> t{};
+    for (int e = 0; e < 12; ++e) {
+        const mc::EdgeInfo i = mc::edgeInfo(e);
+        t[static_cast<std::size_t>(e)] = i.axis * 729 + i.dx * 81 + i.dy * 9 + i.dz;
+    }
+    return t;
+}();
+
+/// An uninitialized array for per-call scratch, on transparent huge pages where it is large:
+/// fresh 4 KiB pages cost a fault each, and faults serialize threads.
+template <class T>
+class ScratchArray {
+public:
+    explicit ScratchArray(std::size_t n) {
+        constexpr std::size_t kHuge = std::size_t{2} << 20;
+        bytes_ = std::max<std::size_t>(n * sizeof(T), 1);
+        if (bytes_ >= kHuge) {
+            bytes_ = (bytes_ + kHuge - 1) / kHuge * kHuge;
+            data_ = static_cast<T*>(std::aligned_alloc(kHuge, bytes_));
+            if (data_) ::madvise(data_, bytes_, MADV_HUGEPAGE);
+        } else {
+            data_ = static_cast<T*>(std::malloc(bytes_));
+        }
+        if (!data_) throw std::bad_alloc();
+    }
+    ~ScratchArray() { std::free(data_); }
+    ScratchArray(const ScratchArray&) = delete;
+    ScratchArray& operator=(const ScratchArray&) = delete;
+    T& operator[](std::size_t i) { return data_[i]; }
+    const T& operator[](std::size_t i) const { return data_[i]; }
+
+private:
+    T* data_ = nullptr;
+    std::size_t bytes_ = 0;
+};
+
+/// Inside bits of a block's 9^3 corners: bit z of mask[x][y] is set when (x, y, z) is inside.
+/// Recomputed from the grid in each pass (cheap), so that it needs no storage between them.
+struct Masks {
+    std::uint16_t mask[9][9];
+};
+
+/// Per-block state kept between the passes: 240 bytes.
 struct BlockData {
-    std::uint16_t mask[9][9];      ///< bit z set: (x, y, z) inside; x, y, z in [0, 8]
-    std::uint16_t prefix[3][64];   ///< owned vertices before (axis, row x * 8 + y)
+    std::uint8_t cut[3][64];     ///< bit z set: owned edge (axis, x, y, z) is intersected; row x * 8 + y
+    std::uint16_t prefix[3][8];  ///< owned vertices before the rows of (axis, x)
+
+    /// Fills cut and prefix from the masks; returns the number of owned vertices.
+    std::uint32_t build(const Masks& m) {
+        std::uint32_t vertices = 0;
+        for (int a = 0; a < 3; ++a)
+            for (int x = 0; x < 8; ++x) {
+                prefix[a][x] = static_cast<std::uint16_t>(vertices);
+                for (int y = 0; y < 8; ++y) {
+                    const std::uint32_t c = m.mask[x][y];
+                    const std::uint32_t bits =
+                        a == 0 ? c ^ m.mask[x + 1][y] : (a == 1 ? c ^ m.mask[x][y + 1] : c ^ (c >> 1));
+                    cut[a][x * 8 + y] = static_cast<std::uint8_t>(bits);
+                    vertices += popcount8(bits);
+                }
+            }
+        return vertices;
+    }
 };
 
 inline std::uint32_t edgeRow(const BlockData& b, int axis, int x, int y) {
-    switch (axis) {
-        case 0: return static_cast<std::uint32_t>(b.mask[x][y] ^ b.mask[x + 1][y]) & 0xFFu;
-        case 1: return static_cast<std::uint32_t>(b.mask[x][y] ^ b.mask[x][y + 1]) & 0xFFu;
-        default: return static_cast<std::uint32_t>(b.mask[x][y] ^ (b.mask[x][y] >> 1)) & 0xFFu;
-    }
+    return b.cut[axis][x * 8 + y];
 }
 
-inline bool rowIsUniform(const BlockData& b, int x, int y) {
-    const std::uint32_t c0 = b.mask[x][y], c1 = b.mask[x + 1][y], c2 = b.mask[x][y + 1], c3 = b.mask[x + 1][y + 1];
-    return (c0 | c1 | c2 | c3) == 0 || (c0 & c1 & c2 & c3) == 0x1FF;
+/// The case codes of the eight cells of row (x, y): byte at bit 4z is the code of cell z.
+inline std::uint64_t rowCodes(const Masks& b, int x, int y) {
+    return kSpread9[b.mask[x][y]] | (kSpread9[b.mask[x + 1][y]] << 1) | (kSpread9[b.mask[x][y + 1]] << 2) |
+           (kSpread9[b.mask[x + 1][y + 1]] << 3);
 }
-
-inline int cellCode(const BlockData& b, int x, int y, int z) {
-    const std::uint32_t c0 = b.mask[x][y] >> z, c1 = b.mask[x + 1][y] >> z, c2 = b.mask[x][y + 1] >> z,
-                        c3 = b.mask[x + 1][y + 1] >> z;
-    return static_cast<int>((c0 & 1) | ((c1 & 1) << 1) | ((c2 & 1) << 2) | ((c3 & 1) << 3) | ((c0 & 2) << 3) |
-                            ((c1 & 2) << 4) | ((c2 & 2) << 5) | ((c3 & 2) << 6));
+inline bool isUniform(std::uint64_t codes) {
+    return codes == 0 || codes == kAllCorners;
 }
 
 template <bool Below>
 inline bool isInside(float v, float iso) {
-    if constexpr (Below) return v < iso;
-    else return v > iso;
+    if constexpr (Below)
+        return v < iso;
+    else
+        return v > iso;
 }
 
 template <bool Below>
-void computeMasks(const Sources& s, float iso, BlockData& b) {
+bool Sources::isUniform(float iso) const {
+    for (int i = 0; i < 8; ++i)
+        if (data[i] || isInside<Below>(constant[i], iso) != isInside<Below>(constant[0], iso)) return false;
+    return true;
+}
+
+/// Index to world for affine transforms: a 3x3 matrix and a translation, in double precision.
+struct AffineToWorld {
+    double m[3][3], t[3];
+    explicit AffineToWorld(const openvdb::Mat4d& a) {
+        // OpenVDB's Mat4 acts on row vectors: world = index * M.
+        for (int r = 0; r < 3; ++r) {
+            for (int c = 0; c < 3; ++c) m[r][c] = a(c, r);
+            t[r] = a(3, r);
+        }
+    }
+    openvdb::Vec3d apply(const openvdb::Vec3d& p) const {
+        return {m[0][0] * p[0] + m[0][1] * p[1] + m[0][2] * p[2] + t[0],
+                m[1][0] * p[0] + m[1][1] * p[1] + m[1][2] * p[2] + t[1],
+                m[2][0] * p[0] + m[2][1] * p[1] + m[2][2] * p[2] + t[2]};
+    }
+};
+
+/// Unit normal at index-space point p on edge (c0, axis) at parameter t: the grid gradient by central
+/// differences at both ends, interpolated, mapped to world space, pointing out of the solid.
+template <bool Below>
+glm::vec3 normalAt(const Accessor& acc, const openvdb::math::Transform& xform, bool world, const Coord& c0, int axis,
+                   float t, const openvdb::Vec3d& p) {
+    auto gradient = [&](const Coord& c) {
+        return openvdb::Vec3d(acc.getValue(c.offsetBy(1, 0, 0)) - acc.getValue(c.offsetBy(-1, 0, 0)),
+                              acc.getValue(c.offsetBy(0, 1, 0)) - acc.getValue(c.offsetBy(0, -1, 0)),
+                              acc.getValue(c.offsetBy(0, 0, 1)) - acc.getValue(c.offsetBy(0, 0, -1)));
+    };
+    Coord c1 = c0;
+    c1[axis] += 1;
+    openvdb::Vec3d g = gradient(c0) * (1.0 - t) + gradient(c1) * t;
+    if (world) g = xform.baseMap()->applyIJT(g, p);
+    if (!Below) g = -g;
+    const double len = g.length();
+    return len > 0 ? glm::vec3(g.x() / len, g.y() / len, g.z() / len) : glm::vec3(0.f);
+}
+
+/// Inside bits of eight consecutive values.
+template <bool Below>
+inline std::uint32_t insideBits8(const float* p, float iso) {
+#if defined(__SSE2__)
+    const __m128 v = _mm_set1_ps(iso);
+    const __m128 lo = _mm_loadu_ps(p), hi = _mm_loadu_ps(p + 4);
+    if constexpr (Below)
+        return static_cast<std::uint32_t>(_mm_movemask_ps(_mm_cmplt_ps(lo, v)) |
+                                          (_mm_movemask_ps(_mm_cmplt_ps(hi, v)) << 4));
+    else
+        return static_cast<std::uint32_t>(_mm_movemask_ps(_mm_cmpgt_ps(lo, v)) |
+                                          (_mm_movemask_ps(_mm_cmpgt_ps(hi, v)) << 4));
+#else
+    std::uint32_t bits = 0;
+    for (int z = 0; z < 8; ++z) bits |= static_cast<std::uint32_t>(isInside<Below>(p[z], iso)) << z;
+    return bits;
+#endif
+}
+
+template <bool Below>
+void computeMasks(const Sources& s, float iso, Masks& b) {
     for (int x = 0; x <= 8; ++x)
         for (int y = 0; y <= 8; ++y) {
             const int i = (x >> 3) | ((y >> 3) << 1);
             std::uint32_t bits;
             if (const float* p = s.data[i]) {
                 p += ((x & 7) << 6) | ((y & 7) << 3);
-                bits = 0;
-                for (int z = 0; z < 8; ++z) bits |= static_cast<std::uint32_t>(isInside<Below>(p[z], iso)) << z;
+                bits = insideBits8<Below>(p, iso);
             } else {
                 bits = isInside<Below>(s.constant[i], iso) ? 0xFFu : 0u;
             }
@@ -213,16 +376,14 @@ std::vector<std::uint64_t> collectBlocks(const Tree& tree, float iso, KeyPacker&
     if (leaves.empty() && extra.empty()) return {};
 
     // Base and extent of the keys.
-    Coord lo(std::numeric_limits<int>::max()), hi(std::numeric_limits<int>::min());
-    for (const Leaf* leaf : leaves) {
-        lo.minComponent(leaf->origin());
-        hi.maxComponent(leaf->origin());
-    }
+    openvdb::CoordBBox leafBox;
+    tree.evalLeafBoundingBox(leafBox);
+    Coord lo = leafBox.min(), hi = leafBox.max();
     for (const Coord& c : extra) {
         lo.minComponent(c);
         hi.maxComponent(c);
     }
-    packer.base = lo - Coord(8);
+    packer.base = Coord(lo.x() & ~7, lo.y() & ~7, lo.z() & ~7) - Coord(8);
     for (int k = 0; k < 3; ++k) {
         const std::int64_t extent = (static_cast<std::int64_t>(hi[k]) - packer.base[k]) / 8 + 1;
         if (extent >= (std::int64_t{1} << kKeyBits))
@@ -230,14 +391,28 @@ std::vector<std::uint64_t> collectBlocks(const Tree& tree, float iso, KeyPacker&
                                 " voxels along one axis; the mesher addresses at most 16.7 million");
     }
 
-    std::vector<std::uint64_t> keys(8 * leaves.size() + extra.size());
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves.size(), 1024), [&](const auto& r) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i)
-            for (int n = 0; n < 8; ++n)
-                keys[8 * i + n] = packer.pack(leaves[i]->origin().offsetBy(-8 * (n & 1), -8 * ((n >> 1) & 1),
-                                                                           -8 * ((n >> 2) & 1)));
+    // Leaves, and those of their seven lower neighbours that are not leaves themselves (in a
+    // narrow band most are), then the tile borders: sorted, unique.
+    std::vector<std::uint64_t> keys(leaves.size());
+    constexpr std::size_t kChunk = 1024;
+    std::vector<std::vector<std::uint64_t>> lower((leaves.size() + kChunk - 1) / kChunk);
+    tbb::parallel_for(std::size_t{0}, lower.size(), [&](std::size_t chunk) {
+        Accessor acc(tree);
+        std::vector<std::uint64_t>& mine = lower[chunk];
+        for (std::size_t i = chunk * kChunk; i < std::min(leaves.size(), (chunk + 1) * kChunk); ++i) {
+            const Coord o = leaves[i]->origin();
+            keys[i] = packer.pack(o);
+            for (int n = 1; n < 8; ++n) {
+                const Coord c = o.offsetBy(-8 * (n & 1), -8 * ((n >> 1) & 1), -8 * ((n >> 2) & 1));
+                if (!acc.probeConstLeaf(c)) mine.push_back(packer.pack(c));
+            }
+        }
     });
-    for (std::size_t i = 0; i < extra.size(); ++i) keys[8 * leaves.size() + i] = packer.pack(extra[i]);
+    std::size_t total = keys.size() + extra.size();
+    for (const auto& l : lower) total += l.size();
+    keys.reserve(total);
+    for (const auto& l : lower) keys.insert(keys.end(), l.begin(), l.end());
+    for (const Coord& c : extra) keys.push_back(packer.pack(c));
     tbb::parallel_sort(keys.begin(), keys.end());
     keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
     return keys;
@@ -262,8 +437,7 @@ private:
 };
 
 template <bool Below>
-void extract(const openvdb::FloatGrid& grid, const MeshingOptions& options, mesh::TriMesh& out,
-             MeshingStats& stats) {
+void extract(const openvdb::FloatGrid& grid, const MeshingOptions& options, mesh::TriMesh& out, MeshingStats& stats) {
     const Tree& tree = grid.tree();
     const float iso = options.isovalue;
     const mc::CaseTable& table = mc::caseTable();
@@ -278,28 +452,26 @@ void extract(const openvdb::FloatGrid& grid, const MeshingOptions& options, mesh
 
     // Pass 1: inside masks, owned-vertex prefixes and triangle counts per block.
     t0 = Clock::now();
-    std::unique_ptr<BlockData[]> blocks(new BlockData[n]);
+    ScratchArray<BlockData> blocks(n);
     std::vector<std::uint64_t> vertexOffset(n + 1, 0), triangleOffset(n + 1, 0);
     {
         ProgressTicker ticker(options.progress, "meshing", 2 * n);
         tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 64), [&](const tbb::blocked_range<std::size_t>& r) {
             Accessor acc(tree);
             Sources src;
+            Masks masks;
             for (std::size_t bi = r.begin(); bi != r.end(); ++bi) {
-                BlockData& b = blocks[bi];
                 src.load(acc, packer.unpack(keys[bi]));
-                computeMasks<Below>(src, iso, b);
-                std::uint32_t vertices = 0;
-                for (int a = 0; a < 3; ++a)
-                    for (int row = 0; row < 64; ++row) {
-                        b.prefix[a][row] = static_cast<std::uint16_t>(vertices);
-                        vertices += static_cast<std::uint32_t>(std::popcount(edgeRow(b, a, row >> 3, row & 7)));
-                    }
+                vertexOffset[bi + 1] = triangleOffset[bi + 1] = 0;
+                if (src.isUniform<Below>(iso)) continue;  // eight constants on one side: no surface
+                computeMasks<Below>(src, iso, masks);
+                const std::uint32_t vertices = blocks[bi].build(masks);
                 std::uint32_t triangles = 0;
                 for (int x = 0; x < 8; ++x)
                     for (int y = 0; y < 8; ++y) {
-                        if (rowIsUniform(b, x, y)) continue;
-                        for (int z = 0; z < 8; ++z) triangles += table.triangleCount[cellCode(b, x, y, z)];
+                        const std::uint64_t codes = rowCodes(masks, x, y);
+                        if (isUniform(codes)) continue;
+                        for (int z = 0; z < 8; ++z) triangles += table.triangleCount[(codes >> (4 * z)) & 0xFF];
                     }
                 vertexOffset[bi + 1] = vertices;
                 triangleOffset[bi + 1] = triangles;
@@ -318,17 +490,21 @@ void extract(const openvdb::FloatGrid& grid, const MeshingOptions& options, mesh
         t0 = Clock::now();
         out.positions.resize(vertexOffset[n]);
         out.triangles.resize(triangleOffset[n]);
-        if (options.normals) out.normals.resize(vertexOffset[n]);
-        else out.normals.clear();
+        if (options.normals)
+            out.normals.resize(vertexOffset[n]);
+        else
+            out.normals.clear();
 
         const openvdb::math::Transform& xform = grid.transform();
         const bool affine = xform.isLinear();
-        const openvdb::Mat4d m = affine ? xform.baseMap()->getAffineMap()->getMat4() : openvdb::Mat4d::identity();
+        const AffineToWorld toWorld(affine ? xform.baseMap()->getAffineMap()->getMat4() : openvdb::Mat4d::identity());
         std::atomic<std::size_t> surfaceBlocks{0};
 
         tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 64), [&](const tbb::blocked_range<std::size_t>& r) {
             Accessor acc(tree);
             Sources src;
+            std::uint32_t slots[kSlots];  // only entries of cut edges are written and read
+            Masks masks;
             std::size_t localSurface = 0;
             for (std::size_t bi = r.begin(); bi != r.end(); ++bi) {
                 const std::uint64_t vbase = vertexOffset[bi];
@@ -337,9 +513,10 @@ void extract(const openvdb::FloatGrid& grid, const MeshingOptions& options, mesh
                 const BlockData& b = blocks[bi];
                 const Coord origin = packer.unpack(keys[bi]);
                 src.load(acc, origin);
+                computeMasks<Below>(src, iso, masks);
 
-                // Vertices owned by this block, in rank order.
-                std::uint64_t vi = vbase;
+                // Vertices owned by this block, in rank order; their indices go to the slot table.
+                std::uint32_t vi = static_cast<std::uint32_t>(vbase);
                 for (int a = 0; a < 3; ++a)
                     for (int row = 0; row < 64; ++row) {
                         const int x = row >> 3, y = row & 7;
@@ -351,54 +528,57 @@ void extract(const openvdb::FloatGrid& grid, const MeshingOptions& options, mesh
                             t = t > kEdgeMargin ? (t < 1.f - kEdgeMargin ? t : 1.f - kEdgeMargin) : kEdgeMargin;
                             openvdb::Vec3d p(origin.x() + x, origin.y() + y, origin.z() + z);
                             p[a] += t;
-                            if (options.normals) {
-                                auto gradient = [&](const Coord& c) {
-                                    return openvdb::Vec3d(acc.getValue(c.offsetBy(1, 0, 0)) - acc.getValue(c.offsetBy(-1, 0, 0)),
-                                                          acc.getValue(c.offsetBy(0, 1, 0)) - acc.getValue(c.offsetBy(0, -1, 0)),
-                                                          acc.getValue(c.offsetBy(0, 0, 1)) - acc.getValue(c.offsetBy(0, 0, -1)));
-                                };
-                                const Coord c0 = origin.offsetBy(x, y, z);
-                                Coord c1 = c0;
-                                c1[a] += 1;
-                                openvdb::Vec3d g = gradient(c0) * (1.0 - t) + gradient(c1) * t;
-                                if (options.worldSpace) g = xform.baseMap()->applyIJT(g, p);
-                                if (!Below) g = -g;
-                                const double len = g.length();
-                                out.normals[vi] = len > 0 ? glm::vec3(g.x() / len, g.y() / len, g.z() / len) : glm::vec3(0.f);
-                            }
-                            if (options.worldSpace) p = affine ? m.transformH(p) : xform.indexToWorld(p);
-                            out.positions[vi++] = glm::vec3(p.x(), p.y(), p.z());
+                            if (options.normals)
+                                out.normals[vi] =
+                                    normalAt<Below>(acc, xform, options.worldSpace, origin.offsetBy(x, y, z), a, t, p);
+                            if (options.worldSpace) p = affine ? toWorld.apply(p) : xform.indexToWorld(p);
+                            out.positions[vi] = glm::vec3(p.x(), p.y(), p.z());
+                            slots[a * 729 + x * 81 + y * 9 + z] = vi++;
                         }
                     }
 
-                // Neighbour blocks that own vertices on our upper faces.
-                std::int64_t owner[7];
-                owner[0] = static_cast<std::int64_t>(bi);
-                for (int o = 1; o < 7; ++o)
-                    owner[o] = index.find(packer.pack(origin.offsetBy(8 * (o & 1), 8 * ((o >> 1) & 1), 8 * ((o >> 2) & 1))));
+                // Vertices on our upper faces that neighbour blocks own (their edges start at 8).
+                for (int o = 1; o < 7; ++o) {
+                    const std::int64_t ob =
+                        index.find(packer.pack(origin.offsetBy(8 * (o & 1), 8 * ((o >> 1) & 1), 8 * ((o >> 2) & 1))));
+                    if (ob < 0) continue;
+                    const BlockData& B = blocks[static_cast<std::size_t>(ob)];
+                    const std::uint32_t obase = static_cast<std::uint32_t>(vertexOffset[static_cast<std::size_t>(ob)]);
+                    if (vertexOffset[static_cast<std::size_t>(ob) + 1] == obase) continue;
+                    const int ox = o & 1, oy = (o >> 1) & 1, oz = (o >> 2) & 1;
+                    for (int a = 0; a < 3; ++a) {
+                        if ((a == 0 && ox) || (a == 1 && oy) || (a == 2 && oz)) continue;  // edge would leave the block
+                        for (int lx = 0; lx < (ox ? 1 : 8); ++lx) {
+                            std::uint32_t rowStart = obase + B.prefix[a][lx];
+                            for (int ly = 0; ly < (oy ? 1 : 8); ++ly) {
+                                const std::uint32_t row = edgeRow(B, a, lx, ly);
+                                std::uint32_t bits = row & (oz ? 1u : 0xFFu);
+                                const int sx = ox ? 8 : lx, sy = oy ? 8 : ly;
+                                for (; bits; bits &= bits - 1) {
+                                    const int lz = std::countr_zero(bits);
+                                    const std::uint32_t rank = popcount8(row & ((1u << lz) - 1u));
+                                    slots[a * 729 + sx * 81 + sy * 9 + (oz ? 8 : lz)] = rowStart + rank;
+                                }
+                                rowStart += popcount8(row);
+                            }
+                        }
+                    }
+                }
 
+                // Triangles: each corner is one slot-table load.
                 std::uint64_t ti = triangleOffset[bi];
                 for (int x = 0; x < 8; ++x)
                     for (int y = 0; y < 8; ++y) {
-                        if (rowIsUniform(b, x, y)) continue;
+                        const std::uint64_t codes = rowCodes(masks, x, y);
+                        if (isUniform(codes)) continue;
                         for (int z = 0; z < 8; ++z) {
-                            const int code = cellCode(b, x, y, z);
+                            const int code = static_cast<int>((codes >> (4 * z)) & 0xFF);
                             const int count = table.triangleCount[code];
-                            for (int k = 0; k < 3 * count; ++k) {
-                                const mc::EdgeInfo e = mc::edgeInfo(table.edges[code][k]);
-                                const int cx = x + e.dx, cy = y + e.dy, cz = z + e.dz;
-                                const int o = (cx >> 3) | ((cy >> 3) << 1) | ((cz >> 3) << 2);
-                                const std::int64_t ob = owner[o];
-                                if (ob < 0) throw std::logic_error("marching cubes: vertex owner block missing");
-                                const BlockData& B = blocks[static_cast<std::size_t>(ob)];
-                                const int lx = cx & 7, ly = cy & 7, lz = cz & 7;
-                                const std::uint32_t rank =
-                                    B.prefix[e.axis][lx * 8 + ly] +
-                                    static_cast<std::uint32_t>(std::popcount(edgeRow(B, e.axis, lx, ly) & ((1u << lz) - 1u)));
-                                out.triangles[ti + static_cast<std::uint64_t>(k / 3)][k % 3] =
-                                    static_cast<std::uint32_t>(vertexOffset[static_cast<std::size_t>(ob)] + rank);
-                            }
-                            ti += static_cast<std::uint64_t>(count);
+                            const std::uint32_t* cell = slots + x * 81 + y * 9 + z;
+                            const std::uint8_t* edges = table.edges[code].data();
+                            for (int k = 0; k < count; ++k, edges += 3)
+                                out.triangles[ti++] = glm::uvec3(cell[kEdgeSlot[edges[0]]], cell[kEdgeSlot[edges[1]]],
+                                                                 cell[kEdgeSlot[edges[2]]]);
                         }
                     }
             }
@@ -421,8 +601,10 @@ bool insideIsBelow(const openvdb::FloatGrid& grid, InsideSide side) {
 void extractIsosurface(const openvdb::FloatGrid& grid, const MeshingOptions& options, mesh::TriMesh& out,
                        MeshingStats* stats) {
     MeshingStats local;
-    if (insideIsBelow(grid, options.inside)) extract<true>(grid, options, out, local);
-    else extract<false>(grid, options, out, local);
+    if (insideIsBelow(grid, options.inside))
+        extract<true>(grid, options, out, local);
+    else
+        extract<false>(grid, options, out, local);
     if (stats) *stats = local;
 }
 

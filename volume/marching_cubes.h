@@ -20,8 +20,8 @@ enum class InsideSide {
 struct MeshingOptions {
     float isovalue = 0.f;
     InsideSide inside = InsideSide::Auto;
-    bool worldSpace = true;   ///< false: positions in index space (voxel units)
-    bool normals = false;     ///< per-vertex normals from the grid gradient (central differences)
+    bool worldSpace = true;  ///< false: positions in index space (voxel units)
+    bool normals = false;    ///< per-vertex normals from the grid gradient (central differences)
     Progress* progress = nullptr;
 };
 

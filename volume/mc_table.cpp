@@ -13,11 +13,19 @@ namespace {
 struct V3 {
     double x, y, z;
 };
-V3 sub(V3 a, V3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-V3 cross(V3 a, V3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
-double dot(V3 a, V3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+V3 sub(V3 a, V3 b) {
+    return {a.x - b.x, a.y - b.y, a.z - b.z};
+}
+V3 cross(V3 a, V3 b) {
+    return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+double dot(V3 a, V3 b) {
+    return a.x * b.x + a.y * b.y + a.z * b.z;
+}
 
-V3 cornerPos(int c) { return {double(c & 1), double((c >> 1) & 1), double((c >> 2) & 1)}; }
+V3 cornerPos(int c) {
+    return {double(c & 1), double((c >> 1) & 1), double((c >> 2) & 1)};
+}
 int edgeCorner(int e, int end) {
     EdgeInfo i = edgeInfo(e);
     int c = i.dx | (i.dy << 1) | (i.dz << 2);
@@ -27,7 +35,9 @@ V3 edgeMid(int e) {
     V3 a = cornerPos(edgeCorner(e, 0)), b = cornerPos(edgeCorner(e, 1));
     return {(a.x + b.x) / 2, (a.y + b.y) / 2, (a.z + b.z) / 2};
 }
-double coord(V3 p, int a) { return a == 0 ? p.x : (a == 1 ? p.y : p.z); }
+double coord(V3 p, int a) {
+    return a == 0 ? p.x : (a == 1 ? p.y : p.z);
+}
 
 // Edges lying in face f (axis f/2, side f%2).
 std::vector<int> faceEdges(int f) {
@@ -114,7 +124,7 @@ CaseTable build() {
                 cycle.push_back(e);
             }
             const int n = static_cast<int>(cycle.size());
-            auto allowed = [&](int i, int j) {  // chord between cycle positions i < j
+            auto allowed = [&](int i, int j) {                          // chord between cycle positions i < j
                 if (j - i == 1 || (i == 0 && j == n - 1)) return true;  // a side
                 return !edgesShareFace(cycle[i], cycle[j]);
             };
@@ -136,7 +146,8 @@ CaseTable build() {
                         }
                     }
                 }
-            if (best[0][n - 1] < 0) throw std::logic_error("mc table: no valid triangulation for case " + std::to_string(code));
+            if (best[0][n - 1] < 0)
+                throw std::logic_error("mc table: no valid triangulation for case " + std::to_string(code));
             std::vector<std::pair<int, int>> stack{{0, n - 1}};
             while (!stack.empty()) {
                 auto [i, j] = stack.back();

@@ -25,13 +25,15 @@ namespace {
 void precheck(const std::filesystem::path& path) {
     std::error_code ec;
     if (!std::filesystem::exists(path, ec)) throw IoError(path.string() + ": no such file");
-    if (std::filesystem::is_directory(path, ec)) throw IoError(path.string() + ": is a directory, expected a .vdb file");
+    if (std::filesystem::is_directory(path, ec))
+        throw IoError(path.string() + ": is a directory, expected a .vdb file");
     std::ifstream in(path, std::ios::binary);
     if (!in) throw IoError(path.string() + ": cannot open");
     unsigned char magic[8] = {};
     in.read(reinterpret_cast<char*>(magic), 8);
-    if (in.gcount() < 8) throw IoError(path.string() + ": byte 0: file too short to be a VDB file (" +
-                                       std::to_string(in.gcount()) + " bytes)");
+    if (in.gcount() < 8)
+        throw IoError(path.string() + ": byte 0: file too short to be a VDB file (" + std::to_string(in.gcount()) +
+                      " bytes)");
     // OpenVDB files start with the 64-bit magic number 0x56444220 ("VDB ") in little-endian order.
     if (!(magic[0] == 0x20 && magic[1] == 0x42 && magic[2] == 0x44 && magic[3] == 0x56))
         throw IoError(path.string() + ": byte 0: not an OpenVDB file (expected the magic number 'VDB ')");
@@ -46,14 +48,17 @@ openvdb::GridPtrVec readVdb(const std::filesystem::path& path) {
         // Read through a stream over the whole file: no delayed loading, no memory mapping, so a
         // truncated file fails here, in the reader, and not later while meshing.
         std::ifstream in(path, std::ios::binary);
+        // OpenVDB does not check its stream; make a short read throw at once, rather than letting
+        // it parse zeros (which, besides giving garbage, leaks nodes inside OpenVDB).
+        in.exceptions(std::ios::failbit | std::ios::badbit);
         openvdb::io::Stream stream(in, /*delayLoad=*/false);
         openvdb::GridPtrVecPtr grids = stream.getGrids();
         if (!grids) throw IoError(path.string() + ": no grids");
-        // OpenVDB does not check its stream: a truncated file leaves it failed, with zeros read.
-        if (in.fail()) throw IoError(path.string() + ": truncated VDB file (data ends before the grids do)");
         return *grids;
     } catch (const IoError&) {
         throw;
+    } catch (const std::ios_base::failure&) {
+        throw IoError(path.string() + ": truncated VDB file (data ends before the grids do)");
     } catch (const openvdb::Exception& e) {
         throw IoError(path.string() + ": corrupt or truncated VDB file: " + e.what());
     } catch (const std::bad_alloc&) {
@@ -70,14 +75,15 @@ openvdb::FloatGrid::Ptr readFloatGrid(const std::filesystem::path& path, const s
         auto f = openvdb::gridPtrCast<openvdb::FloatGrid>(g);
         if (name) {
             if (g->getName() == *name) {
-                if (!f) throw IoError(path.string() + ": grid '" + *name + "' is of type " + g->valueType() +
-                                      "; isoforge meshes float grids");
+                if (!f)
+                    throw IoError(path.string() + ": grid '" + *name + "' is of type " + g->valueType() +
+                                  "; isoforge meshes float grids");
                 return f;
             }
             continue;
         }
-        if (f && (!pick || (pick->getGridClass() != openvdb::GRID_LEVEL_SET &&
-                            f->getGridClass() == openvdb::GRID_LEVEL_SET)))
+        if (f && (!pick ||
+                  (pick->getGridClass() != openvdb::GRID_LEVEL_SET && f->getGridClass() == openvdb::GRID_LEVEL_SET)))
             pick = f;
     }
     if (pick) return pick;
@@ -145,9 +151,9 @@ std::string toString(const GridSummary& s) {
         o << "\n  bounding box   empty";
     } else {
         const auto& a = s.indexBounds;
-        o << "\n  index bbox     [" << a.min().x() << ", " << a.min().y() << ", " << a.min().z() << "] .. [" << a.max().x()
-          << ", " << a.max().y() << ", " << a.max().z() << "]  (" << a.dim().x() << " x " << a.dim().y() << " x "
-          << a.dim().z() << ")";
+        o << "\n  index bbox     [" << a.min().x() << ", " << a.min().y() << ", " << a.min().z() << "] .. ["
+          << a.max().x() << ", " << a.max().y() << ", " << a.max().z() << "]  (" << a.dim().x() << " x " << a.dim().y()
+          << " x " << a.dim().z() << ")";
         const auto& w = s.worldBounds;
         o << "\n  world bbox     [" << w.min().x() << ", " << w.min().y() << ", " << w.min().z() << "] .. ["
           << w.max().x() << ", " << w.max().y() << ", " << w.max().z() << "]";

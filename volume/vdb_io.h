@@ -30,8 +30,8 @@ struct GridSummary {
     std::string name, type, gridClass;
     openvdb::Vec3d voxelSize;
     std::uint64_t activeVoxels = 0, leafNodes = 0, activeTiles = 0;
-    openvdb::CoordBBox indexBounds;          ///< bounding box of active values, index space
-    openvdb::BBoxd worldBounds;              ///< the same box in world space
+    openvdb::CoordBBox indexBounds;                        ///< bounding box of active values, index space
+    openvdb::BBoxd worldBounds;                            ///< the same box in world space
     std::optional<double> background, minValue, maxValue;  ///< scalar grids only
     std::uint64_t memoryBytes = 0;
     bool uniformScale = true;

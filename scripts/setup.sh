@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# Installs everything isoforge needs on Debian 12 (bookworm): the toolchain and the libraries.
+# Idempotent and non-interactive: does nothing when all packages are present.
+set -euo pipefail
+
+packages=(
+  # toolchain
+  g++ cmake ninja-build git pkg-config ca-certificates
+  # libraries
+  libopenvdb-dev libboost-iostreams-dev libtbb-dev libembree-dev libopenimageio-dev libglm-dev zlib1g-dev
+  libcli11-dev libmeshoptimizer-dev
+  # OpenImageIO's CMake export names its command-line tools, so they must exist
+  openimageio-tools
+  # OpenVDB's own tools (vdb_print, vdb_render) for comparisons
+  libopenvdb-tools
+  # tests and benchmarks
+  libgtest-dev libbenchmark-dev
+)
+if [ "${ISOFORGE_CI:-}" = 1 ]; then packages+=(clang-format); fi
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "setup: all ${#packages[@]} packages are installed"
+  exit 0
+fi
+
+as_root=()
+if [ "$(id -u)" -ne 0 ]; then
+  command -v sudo >/dev/null || { echo "setup: run as root or install sudo" >&2; exit 1; }
+  as_root=(sudo)
+fi
+echo "setup: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+"${as_root[@]}" apt-get update -q
+"${as_root[@]}" apt-get install -y -q --no-install-recommends "${missing[@]}"
