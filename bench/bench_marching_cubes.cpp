@@ -85,8 +85,8 @@ int main(int argc, char** argv) {
             std::vector<openvdb::Vec3s> points;
             std::vector<openvdb::Vec3I> tris;
             std::vector<openvdb::Vec4I> quads;
-            vtmPeak =
-                bench::timed([&] { openvdb::tools::volumeToMesh(*in.grid, points, tris, quads, in.iso, 0.0); }).second;
+            std::tie(vtmTime, vtmPeak) =
+                bench::timed([&] { openvdb::tools::volumeToMesh(*in.grid, points, tris, quads, in.iso, 0.0); });
         }
         std::printf("%-15s %12.1f %14.1f %11.4f %14.4f\n", in.name.c_str(), oursPeak / 1048576.0, vtmPeak / 1048576.0,
                     oursTime, vtmTime);
