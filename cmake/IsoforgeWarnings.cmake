@@ -3,6 +3,10 @@ add_library(isoforge_warnings INTERFACE)
 add_library(isoforge::warnings ALIAS isoforge_warnings)
 target_compile_options(isoforge_warnings INTERFACE -Wall -Wextra -Wshadow -Wno-unused-parameter
                                                    $<$<BOOL:${ISOFORGE_WERROR}>:-Werror>)
+# GCC 12 warns falsely about std::string concatenation in libstdc++'s own headers (GCC bug 105651).
+if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU" AND CMAKE_CXX_COMPILER_VERSION VERSION_LESS 13)
+  target_compile_options(isoforge_warnings INTERFACE -Wno-restrict)
+endif()
 
 add_library(isoforge_sanitize INTERFACE)
 add_library(isoforge::sanitize ALIAS isoforge_sanitize)

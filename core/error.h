@@ -20,3 +20,13 @@ struct ResourceError : std::runtime_error {
 };
 
 }  // namespace isoforge
+
+namespace isoforge {
+
+/// Malformed text (a scene, an expression, a .vm model): the message carries file:line:column (or
+/// the column of an expression) and what was expected there.
+struct ParseError : IoError {
+    using IoError::IoError;
+};
+
+}  // namespace isoforge

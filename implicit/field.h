@@ -1,0 +1,63 @@
+#pragma once
+/// @file The Field interface: a function R^3 -> R, negative inside (the seed's convention, §3.6).
+
+#include <limits>
+#include <memory>
+#include <span>
+#include <string>
+
+#include <glm/vec3.hpp>
+
+#include "implicit/interval.h"
+
+namespace isoforge::implicit {
+
+/// An axis-aligned box in world units; infinite components mean "unbounded".
+struct Box3 {
+    glm::vec3 min{std::numeric_limits<float>::infinity()};
+    glm::vec3 max{-std::numeric_limits<float>::infinity()};
+    static Box3 everything();
+    bool isEmpty() const { return min.x > max.x || min.y > max.y || min.z > max.z; }
+    bool isBounded() const;
+    glm::vec3 centre() const { return 0.5f * (min + max); }
+    glm::vec3 size() const { return max - min; }
+    float halfDiagonal() const;
+    Box3 intersect(const Box3& o) const;
+    Box3 unite(const Box3& o) const;
+    Box3 expanded(float r) const { return {min - glm::vec3(r), max + glm::vec3(r)}; }
+};
+
+class Field;
+using FieldPtr = std::shared_ptr<const Field>;
+
+/// A scalar field, negative inside. Fields are immutable and shared between threads; evaluation
+/// keeps no state in the field.
+class Field {
+public:
+    virtual ~Field() = default;
+
+    /// Value at a point (world units).
+    virtual float value(const glm::vec3& p) const = 0;
+    /// Values at many points: one tight loop per node, not one virtual call per point and node.
+    virtual void values(std::span<const glm::vec3> p, std::span<float> out) const;
+    /// Conservative bound of the values over a box: never narrower than the true range.
+    virtual Interval bound(const Box3& box) const = 0;
+    /// Where the surface and the inside can be (a box outside of which the field is positive);
+    /// Box3::everything() for unbounded fields (planes, most quadrics, expressions).
+    virtual Box3 bounds() const = 0;
+    /// Gradient; central differences unless a field knows better.
+    virtual glm::vec3 gradient(const glm::vec3& p) const;
+    /// True when |value| never exceeds the distance to the surface and the field is 1-Lipschitz,
+    /// so that values are usable as (conservative) distances: sphere tracing, narrow bands.
+    virtual bool isDistance() const { return true; }
+    /// A field equal to this one inside `box`, cheaper to evaluate there (CSG pruning, tape
+    /// simplification, far blobs dropped); nullptr when nothing can be dropped.
+    virtual FieldPtr simplify(const Box3& box) const { return nullptr; }
+    /// A short description, e.g. "torus(R=1, r=0.3)".
+    virtual std::string describe() const = 0;
+};
+
+/// `f.simplify(box)` if it gives something, else `f` itself.
+FieldPtr simplified(const FieldPtr& f, const Box3& box);
+
+}  // namespace isoforge::implicit
