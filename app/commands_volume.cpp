@@ -4,10 +4,16 @@
 #include <iostream>
 
 #include "app/commands.h"
+#include "app/field_input.h"
 #include "core/error.h"
+#include "implicit/quadric.h"
+#include "implicit/shape_spec.h"
 #include "mesh/check.h"
 #include "mesh/io.h"
+#include "render/image.h"
+#include "render/slice.h"
 #include "volume/marching_cubes.h"
+#include "volume/sample.h"
 #include "volume/vdb_io.h"
 
 namespace isoforge::app {
@@ -52,15 +58,51 @@ void addInfoCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
     });
 }
 
+namespace {
+
+/// A grid from a volume file, or sampled from a field; prints what it did unless quiet.
+openvdb::FloatGrid::Ptr loadOrSample(const std::string& input, const std::string& gridName, const FieldInput& fin,
+                                     const GlobalOptions& g, Progress* progress, bool printStats) {
+    if (!namesField(input, fin)) {
+        if (input.empty()) throw CLI::ValidationError("input", "give a volume file, a .vm model, --shape or --expr");
+        requireVdb(input);
+        return volume::readFloatGrid(input, gridName.empty() ? std::nullopt : std::optional(gridName));
+    }
+    implicit::Box3 clip;
+    const implicit::FieldPtr field = makeField(input, fin, clip);
+    volume::SampleOptions so;
+    so.voxelSize = voxelSize(*field, clip, fin);
+    so.halfWidth = fin.halfWidth;
+    so.clip = clip;
+    so.progress = progress;
+    volume::SampleStats st;
+    openvdb::FloatGrid::Ptr grid = volume::sample(field, so, &st);
+    grid->setName("field");
+    if (!g.quiet)
+        std::printf("sampled %s at voxel %g: %s leaves, %s inside tiles, %s points in %.3f s (%s)\n",
+                    field->describe().c_str(), so.voxelSize, withCommas(st.leaves).c_str(),
+                    withCommas(st.tiles).c_str(), withCommas(st.pointsEvaluated).c_str(), st.seconds,
+                    st.distance ? "narrow-band level set" : "scalar field, inside below 0");
+    if (printStats)
+        std::printf("bounds evaluated %s, estimated memory %s bytes\n", withCommas(st.boundsEvaluated).c_str(),
+                    withCommas(st.estimatedBytes).c_str());
+    return grid;
+}
+
+}  // namespace
+
 void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
     struct Args {
         std::string input, output, grid, inside = "auto";
         float iso = 0.f;
         bool normals = false, indexSpace = false, ascii = false, stats = false;
+        FieldInput field;
     };
     auto a = std::make_shared<Args>();
-    auto* cmd = app.add_subcommand("mesh", "Extract an iso-surface from a volume as a triangle mesh");
-    cmd->add_option("input", a->input, "Volume file (.vdb)")->required();
+    auto* cmd =
+        app.add_subcommand("mesh", "Extract an iso-surface from a volume or an implicit field as a triangle mesh");
+    cmd->add_option("input", a->input, "Volume file (.vdb) or implicit model (.vm); or use --shape / --expr");
+    addFieldOptions(cmd, a->field, true);
     cmd->add_option("-o,--output", a->output, "Mesh file: .ply (binary; --ascii for text), .obj or .stl")->required();
     cmd->add_option("--grid", a->grid, "Grid name (default: the first level set, else the first float grid)");
     cmd->add_option("--iso", a->iso, "Iso-value (default 0: the zero level set)");
@@ -75,14 +117,13 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
         c.run = [&g, a] {
             if (!mesh::isMeshPath(a->output))
                 throw CLI::ValidationError("--output", a->output + ": expected a .ply, .obj or .stl file name");
-            requireVdb(a->input);
             using Clock = std::chrono::steady_clock;
             const auto t0 = Clock::now();
+            TerminalProgress progress;
             openvdb::FloatGrid::Ptr grid =
-                volume::readFloatGrid(a->input, a->grid.empty() ? std::nullopt : std::optional(a->grid));
+                loadOrSample(a->input, a->grid, a->field, g, g.quiet ? nullptr : &progress, a->stats);
             const double readSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
 
-            TerminalProgress progress;
             volume::MeshingOptions opt;
             opt.isovalue = a->iso;
             opt.inside = a->inside == "below"   ? volume::InsideSide::Below
@@ -110,12 +151,118 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                             a->output.c_str());
             }
             if (a->stats) {
-                std::printf("read %.3f s, mesh %.3f s (setup %.3f, count %.3f, write %.3f), save %.3f s\n", readSeconds,
-                            meshSeconds, stats.secondsSetup, stats.secondsCount, stats.secondsWrite, writeSeconds);
+                std::printf("read/sample %.3f s, mesh %.3f s (setup %.3f, count %.3f, write %.3f), save %.3f s\n",
+                            readSeconds, meshSeconds, stats.secondsSetup, stats.secondsCount, stats.secondsWrite,
+                            writeSeconds);
                 std::printf("leaves %s, blocks visited %s, blocks with surface %s\n", withCommas(stats.leaves).c_str(),
                             withCommas(stats.blocks).c_str(), withCommas(stats.surfaceBlocks).c_str());
                 std::cout << mesh::check(m).toString();
             }
+            return 0;
+        };
+    });
+}
+
+}  // namespace isoforge::app
+
+namespace isoforge::app {
+
+void addSampleCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
+    struct Args {
+        std::string input, output;
+        bool stats = false;
+        FieldInput field;
+    };
+    auto a = std::make_shared<Args>();
+    auto* cmd = app.add_subcommand("sample", "Sample an implicit field into a sparse OpenVDB grid (.vdb)");
+    cmd->add_option("input", a->input, "Implicit model (.vm); or use --shape / --expr");
+    cmd->add_option("-o,--output", a->output, "Output .vdb file")->required();
+    cmd->add_flag("--stats", a->stats, "Print bounds evaluated and the memory estimate");
+    addFieldOptions(cmd, a->field, true);
+    cmd->callback([&c, &g, a] {
+        c.run = [&g, a] {
+            if (std::filesystem::path(a->output).extension() != ".vdb")
+                throw CLI::ValidationError("--output", a->output + ": expected a .vdb file name");
+            if (!namesField(a->input, a->field))
+                throw CLI::ValidationError("input",
+                                           "expected a .vm model, --shape or --expr (use 'convert' for volumes)");
+            TerminalProgress progress;
+            openvdb::FloatGrid::Ptr grid =
+                loadOrSample(a->input, "", a->field, g, g.quiet ? nullptr : &progress, a->stats);
+            volume::writeVdb(a->output, {grid});
+            if (!g.quiet)
+                std::printf("wrote %s: %s active voxels -> %s\n", grid->getName().c_str(),
+                            withCommas(grid->activeVoxelCount()).c_str(), a->output.c_str());
+            return 0;
+        };
+    });
+}
+
+void addSliceCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
+    struct Args {
+        std::string input, output, plane = "z=0";
+        std::vector<float> range{-1.f, 1.f};
+        int size = 1024;
+        bool sign = false;
+        FieldInput field;
+    };
+    auto a = std::make_shared<Args>();
+    auto* cmd = app.add_subcommand("slice", "Render a planar slice of an implicit field to an image");
+    cmd->add_option("input", a->input, "Implicit model (.vm); or use --shape / --expr");
+    cmd->add_option("-o,--output", a->output, "Image file (.png .jpg .tif .exr)")->required();
+    cmd->add_option("--plane", a->plane, "The plane: x=V, y=V or z=V (default z=0)");
+    cmd->add_option("--range", a->range, "In-plane range lo,hi of both axes (default -1,1)")
+        ->delimiter(',')
+        ->expected(2);
+    cmd->add_option("--size", a->size, "Pixels per side (default 1024)")->check(CLI::Range(1, 32768));
+    cmd->add_flag("--sign", a->sign, "Black inside, white outside (else colour-mapped values with the zero line)");
+    addFieldOptions(cmd, a->field, false);
+    cmd->callback([&c, &g, a] {
+        c.run = [&g, a] {
+            render::SliceOptions so;
+            const std::string& p = a->plane;
+            if (p.size() < 3 || (p[0] != 'x' && p[0] != 'y' && p[0] != 'z') || p[1] != '=')
+                throw CLI::ValidationError("--plane", "expected x=V, y=V or z=V, found '" + p + "'");
+            so.axis = p[0] - 'x';
+            try {
+                std::size_t used = 0;
+                so.offset = std::stof(p.substr(2), &used);
+                if (used != p.size() - 2) throw std::invalid_argument(p);
+            } catch (const std::exception&) {
+                throw CLI::ValidationError("--plane", "expected a number after '" + p.substr(0, 2) + "'");
+            }
+            so.lo = a->range[0];
+            so.hi = a->range[1];
+            if (!(so.hi > so.lo)) throw CLI::ValidationError("--range", "expected lo,hi with lo < hi");
+            so.size = a->size;
+            so.sign = a->sign;
+            implicit::Box3 clip;
+            FieldInput fin = a->field;
+            if (fin.box.empty()) fin.box = {-1e30f, -1e30f, -1e30f, 1e30f, 1e30f, 1e30f};  // a slice needs no bounds
+            const implicit::FieldPtr field = makeField(a->input, fin, clip);
+            render::SliceStats st;
+            const render::Image img = render::sliceField(field, so, &st);
+            render::writeImage(a->output, img);
+            if (!g.quiet)
+                std::printf("sliced %s at %s: %dx%d, %s points evaluated, %s tiles filled by bounds, %.3f s -> %s\n",
+                            field->describe().c_str(), p.c_str(), so.size, so.size,
+                            withCommas(st.pointsEvaluated).c_str(), withCommas(st.tilesFilled).c_str(), st.seconds,
+                            a->output.c_str());
+            return 0;
+        };
+    });
+}
+
+void addShapesCommand(CLI::App& app, const GlobalOptions&, Commands& c) {
+    auto* cmd = app.add_subcommand("shapes", "List the shapes --shape accepts, with their parameters and defaults");
+    cmd->callback([&c] {
+        c.run = [] {
+            std::printf(
+                "Shapes for --shape (named or positional parameters; round shapes have their axis along z):\n%s",
+                implicit::shapeHelp().c_str());
+            std::printf("Quadric types: ");
+            for (const auto& t : implicit::quadricTypes()) std::printf("%s ", t.c_str());
+            std::printf("\n");
             return 0;
         };
     });

@@ -49,6 +49,9 @@ int main(int argc, char** argv) {
     app::addInfoCommand(app, global, commands);
     app::addMeshCommand(app, global, commands);
     app::addCheckCommand(app, global, commands);
+    app::addSampleCommand(app, global, commands);
+    app::addSliceCommand(app, global, commands);
+    app::addShapesCommand(app, global, commands);
 
     // --version works without a subcommand.
     for (int i = 1; i < argc; ++i)
@@ -80,6 +83,9 @@ int main(int argc, char** argv) {
     } catch (const CLI::ValidationError& e) {
         std::cerr << "isoforge: " << e.what() << "\n";
         return 2;
+    } catch (const std::invalid_argument& e) {
+        std::cerr << "isoforge: " << e.what() << "\n";
+        return 1;
     } catch (const std::exception& e) {
         std::cerr << "isoforge: internal error: " << e.what() << "\n";
         return 1;

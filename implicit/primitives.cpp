@@ -360,7 +360,40 @@ private:
     bool shell_;
 };
 
+class Clipped final : public Field {
+public:
+    Clipped(FieldPtr c, const Box3& b) : child_(std::move(c)), box_(b) {}
+    float value(const glm::vec3& p) const override { return std::max(child_->value(p), boxValue(p)); }
+    void values(std::span<const glm::vec3> p, std::span<float> out) const override {
+        child_->values(p, out);
+        for (std::size_t i = 0; i < p.size(); ++i) out[i] = std::max(out[i], boxValue(p[i]));
+    }
+    Interval bound(const Box3& b) const override {
+        return max(child_->bound(b), lipschitz(boxValue(b.centre()), 1.f, b.halfDiagonal()));
+    }
+    Box3 bounds() const override { return child_->bounds().intersect(box_); }
+    bool isDistance() const override { return child_->isDistance(); }
+    FieldPtr simplify(const Box3& b) const override {
+        // Inside the box (with the region's own size to spare), the box term is never the max.
+        const Interval c = child_->bound(b), k = lipschitz(boxValue(b.centre()), 1.f, b.halfDiagonal());
+        if (k.hi < c.lo) return simplified(child_, b);
+        FieldPtr s = child_->simplify(b);
+        return s ? std::make_shared<Clipped>(s, box_) : nullptr;
+    }
+    std::string describe() const override { return child_->describe(); }
+
+private:
+    float boxValue(const glm::vec3& p) const { return boxDistance(p - box_.centre(), 0.5f * box_.size()); }
+    FieldPtr child_;
+    Box3 box_;
+};
+
 }  // namespace
+
+FieldPtr makeClipped(FieldPtr c, const Box3& b) {
+    if (b.isEmpty() || !b.isBounded()) throw std::invalid_argument("clip box must be bounded and non-empty");
+    return std::make_shared<Clipped>(std::move(c), b);
+}
 
 FieldPtr makeSphere(float r) {
     if (!(r > 0)) throw std::invalid_argument("sphere: radius must be positive");

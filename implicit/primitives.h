@@ -28,5 +28,8 @@ FieldPtr makeTranslated(FieldPtr child, const glm::vec3& t);
 FieldPtr makeOffset(FieldPtr child, float r);
 /// A hollow shell of thickness t centred on the surface.
 FieldPtr makeShell(FieldPtr child, float thickness);
+/// The intersection of a field with a box: max(child, box distance). Bounded by the box; the box
+/// term is dropped in regions where it cannot matter.
+FieldPtr makeClipped(FieldPtr child, const Box3& box);
 
 }  // namespace isoforge::implicit

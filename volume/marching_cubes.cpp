@@ -595,6 +595,7 @@ void extract(const openvdb::FloatGrid& grid, const MeshingOptions& options, mesh
 bool insideIsBelow(const openvdb::FloatGrid& grid, InsideSide side) {
     if (side == InsideSide::Below) return true;
     if (side == InsideSide::Above) return false;
+    if (const auto meta = grid.getMetadata<openvdb::StringMetadata>("isoforge_inside")) return meta->value() == "below";
     return grid.getGridClass() == openvdb::GRID_LEVEL_SET;
 }
 

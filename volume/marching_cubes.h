@@ -12,7 +12,7 @@ namespace isoforge::volume {
 
 /// Which side of the iso-value is the solid (the inside of the surface).
 enum class InsideSide {
-    Auto,   ///< level sets: below (negative inside); fog and other grids: above (density, CT values)
+    Auto,   ///< level sets and grids sampled from fields: below (negative inside); fog, density, CT: above
     Below,  ///< values < iso are inside
     Above,  ///< values > iso are inside
 };

@@ -1,0 +1,35 @@
+#pragma once
+/// @file The ways a command names an implicit field: a .vm file, --shape, or --expr, with --box,
+/// and the resolution options that turn it into a grid.
+
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "implicit/field.h"
+
+namespace isoforge::app {
+
+struct FieldInput {
+    std::string shape, expr;
+    std::vector<float> box;  ///< x0,y0,z0,x1,y1,z1
+    float voxel = 0.f;
+    int resolution = 0;
+    float halfWidth = 3.f;
+};
+
+/// --shape, --expr, --box, and (with `sampling`) --voxel, --resolution, --half-width.
+void addFieldOptions(CLI::App* cmd, FieldInput& in, bool sampling);
+
+/// True if the command's input is a field rather than a volume file.
+bool namesField(const std::string& file, const FieldInput& in);
+
+/// The field and the box it is clipped to (everything, --box, or [-1,1]^3 for .vm files).
+/// @throw ParseError / IoError / CLI::ValidationError.
+implicit::FieldPtr makeField(const std::string& file, const FieldInput& in, implicit::Box3& clip);
+
+/// Voxel size from --voxel or --resolution (default 256 along the longest side of the domain).
+float voxelSize(const implicit::Field& field, const implicit::Box3& clip, const FieldInput& in);
+
+}  // namespace isoforge::app

@@ -1,0 +1,258 @@
+#include "volume/sample.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+#include <vector>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <unistd.h>
+#include <glm/common.hpp>
+#include <glm/vector_relational.hpp>
+
+#include "core/error.h"
+#include "implicit/primitives.h"
+
+namespace isoforge::volume {
+
+using implicit::Box3;
+using implicit::FieldPtr;
+using openvdb::Coord;
+
+std::uint64_t physicalMemory() {
+    const long pages = ::sysconf(_SC_PHYS_PAGES), size = ::sysconf(_SC_PAGE_SIZE);
+    return pages > 0 && size > 0 ? static_cast<std::uint64_t>(pages) * static_cast<std::uint64_t>(size)
+                                 : std::uint64_t{8} << 30;
+}
+
+Box3 sampleDomain(const implicit::Field& field, const Box3& clip) {
+    return field.bounds().intersect(clip);
+}
+
+float voxelSizeForResolution(const Box3& domain, int n) {
+    if (n <= 0) throw std::invalid_argument("resolution must be positive");
+    const glm::vec3 s = domain.size();
+    return std::max({s.x, s.y, s.z}) / static_cast<float>(n);
+}
+
+namespace {
+
+constexpr int kTop = 128;  // top-level regions: OpenVDB's internal nodes of level 1
+constexpr std::uint64_t kBytesPerLeaf = 512 * 4 + 64 + 96;
+
+std::string humanBytes(double b) {
+    const char* units[] = {"bytes", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB"};
+    int u = 0;
+    while (b >= 1024 && u < 6) {
+        b /= 1024;
+        ++u;
+    }
+    std::ostringstream s;
+    s.precision(b < 10 ? 2 : 3);
+    s << b << " " << units[u];
+    return s.str();
+}
+
+struct Job {
+    Coord origin;
+    FieldPtr field;
+};
+struct Tile {
+    Coord origin;
+    int level;  // OpenVDB tile level: 1 = 8^3, 2 = 128^3
+};
+struct TopResult {
+    std::vector<Job> leaves;
+    std::vector<Tile> tiles;
+    std::uint64_t bounds = 0;
+};
+
+class Sampler {
+public:
+    Sampler(float voxel, float band, bool distance, std::uint64_t maxLeaves)
+        : voxel_(voxel), band_(band), distance_(distance), maxLeaves_(maxLeaves) {}
+
+    void visit(const Coord& origin, int size, const FieldPtr& f, TopResult& out) {
+        if (abort_.load(std::memory_order_relaxed)) return;
+        // Box of the voxel centres of the region; for non-distance fields one voxel more on each
+        // side, so that every voxel next to a sign change is sampled.
+        const float m = distance_ ? 0.f : voxel_;
+        const Box3 box{
+            glm::vec3(origin.x(), origin.y(), origin.z()) * voxel_ - glm::vec3(m),
+            glm::vec3(origin.x() + size - 1, origin.y() + size - 1, origin.z() + size - 1) * voxel_ + glm::vec3(m)};
+        const implicit::Interval b = f->bound(box);
+        ++out.bounds;
+        const float outsideAbove = distance_ ? band_ : 0.f;
+        if (b.lo >= outsideAbove) return;           // all outside (or beyond the band): background
+        if (b.hi <= -outsideAbove && b.hi < 0.f) {  // all inside: tiles
+            if (size == kTop)
+                out.tiles.push_back({origin, 2});
+            else
+                for (int x = 0; x < size; x += 8)
+                    for (int y = 0; y < size; y += 8)
+                        for (int z = 0; z < size; z += 8) out.tiles.push_back({origin.offsetBy(x, y, z), 1});
+            return;
+        }
+        if (size == 8) {
+            out.leaves.push_back({origin, f});
+            if (leafCount_.fetch_add(1, std::memory_order_relaxed) + 1 > maxLeaves_) abort_ = true;
+            return;
+        }
+        const FieldPtr g = implicit::simplified(f, box);
+        const int h = size / 2;
+        for (int i = 0; i < 8; ++i)
+            visit(origin.offsetBy((i & 1) * h, ((i >> 1) & 1) * h, ((i >> 2) & 1) * h), h, g, out);
+    }
+    bool aborted() const { return abort_; }
+
+private:
+    float voxel_, band_;
+    bool distance_;
+    std::uint64_t maxLeaves_;
+    std::atomic<std::uint64_t> leafCount_{0};
+    std::atomic<bool> abort_{false};
+};
+
+int floorDiv(int a, int b) {
+    return a >= 0 ? a / b : -((-a + b - 1) / b);
+}
+
+}  // namespace
+
+openvdb::FloatGrid::Ptr sample(const FieldPtr& field, const SampleOptions& o, SampleStats* statsOut) {
+    const auto t0 = std::chrono::steady_clock::now();
+    if (!(o.voxelSize > 0) || !std::isfinite(o.voxelSize)) throw std::invalid_argument("voxel size must be positive");
+    if (!(o.halfWidth >= 1.f)) throw std::invalid_argument("narrow-band half-width must be at least 1 voxel");
+    SampleStats stats;
+    stats.distance = field->isDistance();
+    const float voxel = o.voxelSize;
+    const float band = o.halfWidth * voxel;
+    const float background = stats.distance ? band : 1.f;
+
+    auto grid = openvdb::FloatGrid::create(background);
+    grid->setTransform(openvdb::math::Transform::createLinearTransform(voxel));
+    if (stats.distance)
+        grid->setGridClass(openvdb::GRID_LEVEL_SET);
+    else
+        grid->insertMeta("isoforge_inside", openvdb::StringMetadata("below"));
+
+    const Box3 domain = sampleDomain(*field, o.clip);
+    if (!domain.isBounded())
+        throw std::invalid_argument(field->describe() + " is unbounded: give a box to sample it in");
+    if (domain.isEmpty()) return grid;
+    // Where the clip box cuts the field's bounds, sample the intersection with the box, so that the
+    // surface closes on the box instead of running on into the margin.
+    const Box3 own = field->bounds();
+    const bool cut = !own.isBounded() || glm::any(glm::lessThan(own.min, o.clip.min)) ||
+                     glm::any(glm::greaterThan(own.max, o.clip.max));
+    const FieldPtr f = cut && o.clip.isBounded() ? implicit::makeClipped(field, o.clip) : field;
+
+    // Index range of the voxels to consider (voxel i is centred at i * voxel).
+    const float margin = (stats.distance ? band : 0.f) + 2.f * voxel;
+    const double maxIndex = double{1 << 30};
+    const glm::dvec3 lo = glm::floor(glm::dvec3(domain.min - glm::vec3(margin)) / double(voxel));
+    const glm::dvec3 hi = glm::ceil(glm::dvec3(domain.max + glm::vec3(margin)) / double(voxel));
+    const glm::dvec3 extent = hi - lo + 1.0;
+    // Estimate: leaves along a surface like the domain's box, as thick as the band.
+    const double area = 2.0 * (extent.x * extent.y + extent.y * extent.z + extent.z * extent.x);
+    const double thickness = std::ceil((stats.distance ? 2.0 * o.halfWidth : 2.0) / 8.0) + 1.0;
+    const double leavesEstimate = area / 64.0 * thickness;
+    const double bytesEstimate = leavesEstimate * kBytesPerLeaf;
+    stats.estimatedBytes = bytesEstimate > 1.8e19 ? ~std::uint64_t{0} : static_cast<std::uint64_t>(bytesEstimate);
+    const std::uint64_t limit = o.memoryLimit ? o.memoryLimit : physicalMemory() / 2;
+    std::ostringstream dims;
+    dims << static_cast<long long>(extent.x) << " x " << static_cast<long long>(extent.y) << " x "
+         << static_cast<long long>(extent.z) << " voxels";
+    if (bytesEstimate > static_cast<double>(limit) || std::abs(lo.x) > maxIndex || std::abs(hi.x) > maxIndex ||
+        std::abs(lo.y) > maxIndex || std::abs(hi.y) > maxIndex || std::abs(lo.z) > maxIndex ||
+        std::abs(hi.z) > maxIndex)
+        throw ResourceError("sampling " + field->describe() + " at voxel size " + std::to_string(voxel) + " (" +
+                            dims.str() + ") would need about " + humanBytes(bytesEstimate) + "; the limit is " +
+                            humanBytes(static_cast<double>(limit)) +
+                            ". Use a larger voxel size or a lower resolution.");
+
+    const Coord ilo(static_cast<int>(lo.x), static_cast<int>(lo.y), static_cast<int>(lo.z));
+    const Coord ihi(static_cast<int>(hi.x), static_cast<int>(hi.y), static_cast<int>(hi.z));
+    std::vector<Coord> tops;
+    for (int x = floorDiv(ilo.x(), kTop); x <= floorDiv(ihi.x(), kTop); ++x)
+        for (int y = floorDiv(ilo.y(), kTop); y <= floorDiv(ihi.y(), kTop); ++y)
+            for (int z = floorDiv(ilo.z(), kTop); z <= floorDiv(ihi.z(), kTop); ++z)
+                tops.emplace_back(x * kTop, y * kTop, z * kTop);
+
+    // Top-down, in parallel over top regions; results kept per region for a deterministic order.
+    Sampler sampler(voxel, band, stats.distance, std::max<std::uint64_t>(limit / kBytesPerLeaf, 1));
+    std::vector<TopResult> results(tops.size());
+    if (o.progress) o.progress->begin("sampling");
+    std::atomic<std::size_t> done{0};
+    tbb::parallel_for(std::size_t{0}, tops.size(), [&](std::size_t i) {
+        sampler.visit(tops[i], kTop, f, results[i]);
+        if (o.progress) o.progress->update(++done, 2 * tops.size());
+    });
+    if (sampler.aborted())
+        throw ResourceError("sampling " + field->describe() + " outgrew the memory limit of " +
+                            humanBytes(static_cast<double>(limit)) + " (the surface is larger than " + dims.str() +
+                            " suggested). Use a larger voxel size.");
+    std::vector<Job> jobs;
+    for (TopResult& r : results) {
+        stats.boundsEvaluated += r.bounds;
+        stats.tiles += r.tiles.size();
+        for (Job& j : r.leaves) jobs.push_back(std::move(j));
+    }
+    stats.leaves = jobs.size();
+    stats.pointsEvaluated = 512 * jobs.size();
+
+    // Leaves: 512 points each, in parallel.
+    using Leaf = openvdb::FloatTree::LeafNodeType;
+    std::vector<std::unique_ptr<Leaf>> leaves(jobs.size());
+    std::vector<std::uint8_t> allInside(jobs.size(), 0);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, jobs.size(), 16), [&](const auto& r) {
+        std::vector<glm::vec3> points(512);
+        std::vector<float> values(512);
+        for (std::size_t j = r.begin(); j != r.end(); ++j) {
+            const Coord& c = jobs[j].origin;
+            for (int i = 0; i < 512; ++i)
+                points[i] = glm::vec3(c.x() + (i >> 6), c.y() + ((i >> 3) & 7), c.z() + (i & 7)) * voxel;
+            jobs[j].field->values(points, values);
+            auto leaf = std::make_unique<Leaf>(c, background, false);
+            bool anyActive = false, inside = true;
+            for (int i = 0; i < 512; ++i) {
+                float v = values[i];
+                if (std::isnan(v)) v = background;  // outside the field's domain (sqrt of negatives...)
+                inside = inside && v < 0.f;
+                if (!stats.distance || std::abs(v) < background) {
+                    leaf->setValueOn(static_cast<openvdb::Index>(i), v);
+                    anyActive = true;
+                } else {
+                    leaf->setValueOff(static_cast<openvdb::Index>(i), v < 0.f ? -background : background);
+                }
+            }
+            if (anyActive)
+                leaves[j] = std::move(leaf);
+            else
+                allInside[j] = inside;
+        }
+        if (o.progress)
+            o.progress->update(tops.size() + (r.end() * tops.size()) / std::max<std::size_t>(jobs.size(), 1),
+                               2 * tops.size());
+    });
+    if (o.progress) o.progress->end();
+
+    auto& tree = grid->tree();
+    for (const TopResult& r : results)
+        for (const Tile& t : r.tiles) tree.addTile(static_cast<openvdb::Index>(t.level), t.origin, -background, false);
+    for (std::size_t j = 0; j < jobs.size(); ++j) {
+        if (leaves[j])
+            tree.addLeaf(leaves[j].release());
+        else if (allInside[j])
+            tree.addTile(1, jobs[j].origin, -background, false);
+    }
+    stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (statsOut) *statsOut = stats;
+    return grid;
+}
+
+}  // namespace isoforge::volume

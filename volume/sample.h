@@ -1,0 +1,55 @@
+#pragma once
+/// @file Sampling implicit fields into sparse OpenVDB grids.
+
+#include <cstdint>
+
+#include <openvdb/openvdb.h>
+
+#include "core/progress.h"
+#include "implicit/field.h"
+
+namespace isoforge::volume {
+
+struct SampleOptions {
+    float voxelSize = 0.f;  ///< voxel edge length, world units (> 0)
+    float halfWidth = 3.f;  ///< narrow-band half-width in voxels, for distance fields (>= 1)
+    implicit::Box3 clip = implicit::Box3::everything();  ///< intersected with the field's bounds
+    std::uint64_t memoryLimit = 0;                       ///< bytes; 0: half of this machine's memory
+    Progress* progress = nullptr;
+};
+
+struct SampleStats {
+    std::uint64_t boundsEvaluated = 0;  ///< region bounds computed top-down
+    std::uint64_t leaves = 0;           ///< 8^3 blocks sampled point by point
+    std::uint64_t tiles = 0;            ///< inside regions filled as tiles
+    std::uint64_t pointsEvaluated = 0;
+    std::uint64_t estimatedBytes = 0;  ///< the estimate the request was checked against
+    bool distance = true;              ///< sampled as a narrow-band level set
+    double seconds = 0;
+};
+
+/// Samples `field` into a sparse grid, visiting the tree top-down from 128^3 regions and skipping
+/// every region whose conservative bound proves the surface is not there: work grows with the
+/// surface, and no thin feature is lost. Inside regions become tiles of the inside value.
+///  - Distance fields: a narrow-band level set (class LEVEL_SET, background halfWidth * voxelSize),
+///    voxels within the band active with their distance.
+///  - Other fields (blobby, algebraic, .vm models): the values in every 8^3 block the surface may
+///    cross, and its neighbours; inside tiles -1, outside background 1; metadata
+///    "isoforge_inside" = "below" so that meshing takes values below 0 as inside.
+/// @throw std::invalid_argument if the field is unbounded and no clip box is given, or the voxel
+///        size is not positive.
+/// @throw ResourceError if the estimated memory exceeds the limit (the message gives the estimate),
+///        or if sampling outgrows the limit on its way.
+openvdb::FloatGrid::Ptr sample(const implicit::FieldPtr& field, const SampleOptions& options,
+                               SampleStats* stats = nullptr);
+
+/// The region sampled for `field` under `clip` (bounds ∩ clip).
+implicit::Box3 sampleDomain(const implicit::Field& field, const implicit::Box3& clip);
+
+/// Voxel size giving `n` voxels along the longest side of `domain`.
+float voxelSizeForResolution(const implicit::Box3& domain, int n);
+
+/// Physical memory of this machine, bytes.
+std::uint64_t physicalMemory();
+
+}  // namespace isoforge::volume
