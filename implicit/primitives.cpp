@@ -221,9 +221,9 @@ public:
             const glm::vec3 a = v_[(f + 1) % 4], b = v_[(f + 2) % 4], c = v_[(f + 3) % 4];
             // Inside the triangle's prism: distance to the plane; else to the nearest edge.
             const glm::vec3 n = n_[f];
-            const bool inPrism = glm::dot(glm::cross(b - a, n), p - a) <= 0 &&
-                                 glm::dot(glm::cross(c - b, n), p - b) <= 0 &&
-                                 glm::dot(glm::cross(a - c, n), p - c) <= 0;
+            const float s1 = glm::dot(glm::cross(b - a, n), p - a), s2 = glm::dot(glm::cross(c - b, n), p - b),
+                        s3 = glm::dot(glm::cross(a - c, n), p - c);
+            const bool inPrism = (s1 <= 0 && s2 <= 0 && s3 <= 0) || (s1 >= 0 && s2 >= 0 && s3 >= 0);
             float d2;
             if (inPrism) {
                 const float d = glm::dot(n, p) - d_[f];

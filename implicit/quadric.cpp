@@ -16,20 +16,22 @@ FieldPtr makeQuadric(const std::array<float, 10>& c) {
     };
     const std::uint32_t x = push({Op::VarX}), y = push({Op::VarY}), z = push({Op::VarZ});
     std::uint32_t sum = push({Op::Const, 0, 0, c[9]});
-    auto term = [&](float k, std::uint32_t v) {
+    // Terms with a zero coefficient emit nothing: the sum must stay the tape's last instruction.
+    auto term = [&](float k, auto make) {
         if (k == 0.f) return;
+        const std::uint32_t v = make();
         const std::uint32_t t = push({Op::Mul, push({Op::Const, 0, 0, k}), v});
         sum = push({Op::Add, sum, t});
     };
-    term(c[0], push({Op::Square, x}));
-    term(c[1], push({Op::Square, y}));
-    term(c[2], push({Op::Square, z}));
-    term(c[3], push({Op::Mul, x, y}));
-    term(c[4], push({Op::Mul, y, z}));
-    term(c[5], push({Op::Mul, z, x}));
-    term(c[6], x);
-    term(c[7], y);
-    term(c[8], z);
+    term(c[0], [&] { return push({Op::Square, x}); });
+    term(c[1], [&] { return push({Op::Square, y}); });
+    term(c[2], [&] { return push({Op::Square, z}); });
+    term(c[3], [&] { return push({Op::Mul, x, y}); });
+    term(c[4], [&] { return push({Op::Mul, y, z}); });
+    term(c[5], [&] { return push({Op::Mul, z, x}); });
+    term(c[6], [&] { return x; });
+    term(c[7], [&] { return y; });
+    term(c[8], [&] { return z; });
     std::ostringstream d;
     d << "quadric(";
     for (int i = 0; i < 10; ++i) d << (i ? ", " : "") << c[static_cast<std::size_t>(i)];

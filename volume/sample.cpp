@@ -133,17 +133,15 @@ openvdb::FloatGrid::Ptr sample(const FieldPtr& field, const SampleOptions& o, Sa
     const float band = o.halfWidth * voxel;
     const float background = stats.distance ? band : 1.f;
 
-    auto grid = openvdb::FloatGrid::create(background);
-    grid->setTransform(openvdb::math::Transform::createLinearTransform(voxel));
-    if (stats.distance)
-        grid->setGridClass(openvdb::GRID_LEVEL_SET);
-    else
-        grid->insertMeta("isoforge_inside", openvdb::StringMetadata("below"));
-
     const Box3 domain = sampleDomain(*field, o.clip);
     if (!domain.isBounded())
         throw std::invalid_argument(field->describe() + " is unbounded: give a box to sample it in");
-    if (domain.isEmpty()) return grid;
+    if (domain.isEmpty()) {
+        auto empty = openvdb::FloatGrid::create(background);
+        empty->setTransform(openvdb::math::Transform::createLinearTransform(voxel));
+        if (stats.distance) empty->setGridClass(openvdb::GRID_LEVEL_SET);
+        return empty;
+    }
     // Where the clip box cuts the field's bounds, sample the intersection with the box, so that the
     // surface closes on the box instead of running on into the margin.
     const Box3 own = field->bounds();
@@ -174,6 +172,13 @@ openvdb::FloatGrid::Ptr sample(const FieldPtr& field, const SampleOptions& o, Sa
                             dims.str() + ") would need about " + humanBytes(bytesEstimate) + "; the limit is " +
                             humanBytes(static_cast<double>(limit)) +
                             ". Use a larger voxel size or a lower resolution.");
+
+    auto grid = openvdb::FloatGrid::create(background);
+    grid->setTransform(openvdb::math::Transform::createLinearTransform(voxel));
+    if (stats.distance)
+        grid->setGridClass(openvdb::GRID_LEVEL_SET);
+    else
+        grid->insertMeta("isoforge_inside", openvdb::StringMetadata("below"));
 
     const Coord ilo(static_cast<int>(lo.x), static_cast<int>(lo.y), static_cast<int>(lo.z));
     const Coord ihi(static_cast<int>(hi.x), static_cast<int>(hi.y), static_cast<int>(hi.z));
