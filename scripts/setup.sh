@@ -15,6 +15,8 @@ packages=(
   libopenvdb-tools
   # tests and benchmarks
   libgtest-dev libbenchmark-dev
+  # benchmark baselines (bench/vm_numpy.py)
+  python3-numpy
 )
 if [ "${ISOFORGE_CI:-}" = 1 ]; then packages+=(clang-format); fi
 

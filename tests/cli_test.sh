@@ -68,5 +68,31 @@ expect_exit 1 "bad OBJ" "$bin" check "$tmp/bad.obj"
 grep -q "bad.obj:2:" "$tmp/err" && ok || bad "OBJ error has line and column"
 expect_exit 1 "unwritable output" "$bin" mesh "$src/data/sphere.vdb" -o "$tmp/no/such/dir/x.ply"
 
+# Implicit fields: shapes, expressions, .vm models, sampling, slices.
+expect_exit 0 "mesh --shape" "$bin" mesh --shape "torus(R=1, r=0.3)" --voxel 0.02 -o "$tmp/torus.ply"
+expect_exit 0 "torus check" "$bin" check --strict "$tmp/torus.ply"
+grep -q "genus           1" "$tmp/out" && ok || bad "the torus has genus 1"
+expect_exit 0 "mesh --expr" "$bin" mesh --expr "x^4 - 5*x^2 + y^4 - 5*y^2 + z^4 - 5*z^2 + 11.8" --box -3,-3,-3,3,3,3 \
+    --resolution 96 -o "$tmp/goursat.ply"
+expect_exit 0 "goursat check" "$bin" check --strict "$tmp/goursat.ply"
+expect_exit 0 "sample .vm" "$bin" sample "$src/data/text.vm" --resolution 64 -o "$tmp/text.vdb"
+expect_exit 0 "info of the sampled grid" "$bin" info "$tmp/text.vdb"
+expect_exit 0 "mesh .vm" "$bin" mesh "$src/data/text.vm" --resolution 64 -o "$tmp/text.ply"
+expect_exit 0 "slice --sign" "$bin" slice "$src/data/text.vm" --plane z=0 --range -1,1 --size 256 --sign -o "$tmp/slice.png"
+[ -s "$tmp/slice.png" ] && ok || bad "slice wrote a PNG"
+expect_exit 0 "slice values" "$bin" slice "$src/data/text.vm" --plane z=0.2 --range -2,2 --size 128 -o "$tmp/dist.png"
+expect_exit 0 "shapes" "$bin" shapes
+grep -q "torus" "$tmp/out" && ok || bad "shapes lists the torus"
+expect_exit 1 "bad expression" "$bin" mesh --expr "x^2 + " --box -1,-1,-1,1,1,1 -o "$tmp/e.ply"
+grep -q "expression:1:" "$tmp/err" && ok || bad "expression error has a column"
+expect_exit 1 "unknown shape" "$bin" mesh --shape "blob(1)" -o "$tmp/e.ply"
+expect_exit 2 "unbounded without --box" "$bin" mesh --expr "x + y" -o "$tmp/e.ply"
+printf '_0 var-x\n_1 frob _0\n' >"$tmp/bad.vm"
+expect_exit 1 "bad .vm" "$bin" slice "$tmp/bad.vm" -o "$tmp/e.png"
+grep -q "bad.vm:2:4: unknown op 'frob'" "$tmp/err" && ok || bad ".vm error has line and column"
+expect_exit 1 "absurd resolution" "$bin" mesh --shape "sphere(r=1)" --resolution 1000000 -o "$tmp/e.ply"
+grep -q "would need about" "$tmp/err" && ok || bad "absurd request names the memory it would need"
+[ ! -e "$tmp/e.ply" ] && [ ! -e "$tmp/e.png" ] && ok || bad "no output after field errors"
+
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

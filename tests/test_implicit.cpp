@@ -129,9 +129,11 @@ TEST(Fields, BoundsNeverUnderestimateAndBatchesMatchPoints) {
                 ASSERT_LE(v, b.hi + 1e-4f * (1.f + std::abs(v))) << f->describe();
             }
             // Simplified over the box, the field keeps its values there.
-            if (FieldPtr g = f->simplify(box))
-                for (const auto& p : pts)
+            if (FieldPtr g = f->simplify(box)) {
+                for (const auto& p : pts) {
                     ASSERT_NEAR(g->value(p), f->value(p), 1e-5f * (1.f + std::abs(f->value(p)))) << f->describe();
+                }
+            }
         }
     }
 }
