@@ -79,10 +79,10 @@ openvdb::FloatGrid::Ptr loadOrSample(const std::string& input, const std::string
     openvdb::FloatGrid::Ptr grid = volume::sample(field, so, &st);
     grid->setName("field");
     if (!g.quiet)
-        std::printf("sampled %s at voxel %g: %s leaves, %s inside tiles, %s points in %.3f s (%s)\n",
-                    field->describe().c_str(), so.voxelSize, withCommas(st.leaves).c_str(),
-                    withCommas(st.tiles).c_str(), withCommas(st.pointsEvaluated).c_str(), st.seconds,
-                    st.distance ? "narrow-band level set" : "scalar field, inside below 0");
+        std::printf("sampled %s at voxel %g (estimated %s MiB): %s leaves, %s inside tiles, %s points in %.3f s (%s)\n",
+                    field->describe().c_str(), so.voxelSize, withCommas(st.estimatedBytes >> 20).c_str(),
+                    withCommas(st.leaves).c_str(), withCommas(st.tiles).c_str(), withCommas(st.pointsEvaluated).c_str(),
+                    st.seconds, st.distance ? "narrow-band level set" : "scalar field, inside below 0");
     if (printStats)
         std::printf("bounds evaluated %s, estimated memory %s bytes\n", withCommas(st.boundsEvaluated).c_str(),
                     withCommas(st.estimatedBytes).c_str());
