@@ -4,8 +4,12 @@
 #include <iostream>
 
 #include "app/commands.h"
+
+#include <tbb/parallel_for.h>
+
 #include "app/field_input.h"
 #include "core/error.h"
+#include "csg/scene.h"
 #include "implicit/quadric.h"
 #include "implicit/shape_spec.h"
 #include "mesh/check.h"
@@ -62,7 +66,8 @@ namespace {
 
 /// A grid from a volume file, or sampled from a field; prints what it did unless quiet.
 openvdb::FloatGrid::Ptr loadOrSample(const std::string& input, const std::string& gridName, const FieldInput& fin,
-                                     const GlobalOptions& g, Progress* progress, bool printStats) {
+                                     const GlobalOptions& g, Progress* progress, bool printStats,
+                                     implicit::FieldPtr* fieldOut = nullptr) {
     if (!namesField(input, fin)) {
         if (input.empty()) throw CLI::ValidationError("input", "give a volume file, a .vm model, --shape or --expr");
         requireVdb(input);
@@ -70,6 +75,7 @@ openvdb::FloatGrid::Ptr loadOrSample(const std::string& input, const std::string
     }
     implicit::Box3 clip;
     const implicit::FieldPtr field = makeField(input, fin, clip);
+    if (fieldOut) *fieldOut = field;
     volume::SampleOptions so;
     so.voxelSize = voxelSize(*field, clip, fin);
     so.halfWidth = fin.halfWidth;
@@ -101,7 +107,8 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
     auto a = std::make_shared<Args>();
     auto* cmd =
         app.add_subcommand("mesh", "Extract an iso-surface from a volume or an implicit field as a triangle mesh");
-    cmd->add_option("input", a->input, "Volume file (.vdb) or implicit model (.vm); or use --shape / --expr");
+    cmd->add_option("input", a->input,
+                    "Volume (.vdb), scene (.isf, OpenSCAD .csg) or implicit model (.vm); or --shape / --expr");
     addFieldOptions(cmd, a->field, true);
     cmd->add_option("-o,--output", a->output, "Mesh file: .ply (binary; --ascii for text), .obj or .stl")->required();
     cmd->add_option("--grid", a->grid, "Grid name (default: the first level set, else the first float grid)");
@@ -120,8 +127,9 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
             using Clock = std::chrono::steady_clock;
             const auto t0 = Clock::now();
             TerminalProgress progress;
+            implicit::FieldPtr field;
             openvdb::FloatGrid::Ptr grid =
-                loadOrSample(a->input, a->grid, a->field, g, g.quiet ? nullptr : &progress, a->stats);
+                loadOrSample(a->input, a->grid, a->field, g, g.quiet ? nullptr : &progress, a->stats, &field);
             const double readSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
 
             volume::MeshingOptions opt;
@@ -140,6 +148,17 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                 std::cerr << "isoforge: warning: no surface at iso " << a->iso << " in grid '" << grid->getName()
                           << "' (values " << (volume::insideIsBelow(*grid, opt.inside) ? "below" : "above")
                           << " the iso are inside); writing an empty mesh\n";
+            if (field && !m.empty() && field->colorAt(m.positions.front()).a >= 0.f) {
+                // Colours of CSG colour nodes, per vertex (white where none is given).
+                bool any = false;
+                m.colors.resize(m.positions.size());
+                tbb::parallel_for(std::size_t{0}, m.positions.size(), [&](std::size_t i) {
+                    const glm::vec4 col = field->colorAt(m.positions[i]);
+                    m.colors[i] = col.a > 0 ? glm::vec3(col) : glm::vec3(1.f);
+                });
+                for (const auto& col : m.colors) any = any || col != glm::vec3(1.f);
+                if (!any) m.colors.clear();
+            }
             const auto t2 = Clock::now();
             mesh::writeMesh(a->output, m, {a->ascii});
             const double writeSeconds = std::chrono::duration<double>(Clock::now() - t2).count();
@@ -175,7 +194,7 @@ void addSampleCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
     };
     auto a = std::make_shared<Args>();
     auto* cmd = app.add_subcommand("sample", "Sample an implicit field into a sparse OpenVDB grid (.vdb)");
-    cmd->add_option("input", a->input, "Implicit model (.vm); or use --shape / --expr");
+    cmd->add_option("input", a->input, "Scene (.isf, .csg) or implicit model (.vm); or use --shape / --expr");
     cmd->add_option("-o,--output", a->output, "Output .vdb file")->required();
     cmd->add_flag("--stats", a->stats, "Print bounds evaluated and the memory estimate");
     addFieldOptions(cmd, a->field, true);
@@ -208,7 +227,7 @@ void addSliceCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
     };
     auto a = std::make_shared<Args>();
     auto* cmd = app.add_subcommand("slice", "Render a planar slice of an implicit field to an image");
-    cmd->add_option("input", a->input, "Implicit model (.vm); or use --shape / --expr");
+    cmd->add_option("input", a->input, "Scene (.isf, .csg) or implicit model (.vm); or use --shape / --expr");
     cmd->add_option("-o,--output", a->output, "Image file (.png .jpg .tif .exr)")->required();
     cmd->add_option("--plane", a->plane, "The plane: x=V, y=V or z=V (default z=0)");
     cmd->add_option("--range", a->range, "In-plane range lo,hi of both axes (default -1,1)")
@@ -263,6 +282,37 @@ void addShapesCommand(CLI::App& app, const GlobalOptions&, Commands& c) {
             std::printf("Quadric types: ");
             for (const auto& t : implicit::quadricTypes()) std::printf("%s ", t.c_str());
             std::printf("\n");
+            return 0;
+        };
+    });
+}
+
+}  // namespace isoforge::app
+
+namespace isoforge::app {
+
+void addCheckSceneCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
+    auto file = std::make_shared<std::string>();
+    auto* cmd = app.add_subcommand("check-scene",
+                                   "Parse a scene (.isf, OpenSCAD .csg) and report its tree, bounds and warnings");
+    cmd->add_option("scene", *file, "Scene file")->required();
+    cmd->callback([&c, file] {
+        c.run = [file] {
+            csg::Scene s = csg::readScene(*file);
+            std::printf("%s: %zu primitives\n%s", file->c_str(), s.primitives, s.tree.c_str());
+            const implicit::Box3 b = s.root->bounds();
+            if (b.isEmpty())
+                std::printf("bounds          empty\n");
+            else if (!b.isBounded())
+                std::printf("bounds          unbounded\n");
+            else
+                std::printf("bounds          [%g, %g, %g] .. [%g, %g, %g]\n", b.min.x, b.min.y, b.min.z, b.max.x,
+                            b.max.y, b.max.z);
+            std::printf("camera          %s\nlights          %zu\n", s.camera.given ? "given" : "automatic",
+                        s.lights.size());
+            for (const auto& w : s.warnings)
+                std::printf("warning: %s: %s\n", w.loc.toString().c_str(), w.message.c_str());
+            if (s.warnings.empty()) std::printf("no warnings\n");
             return 0;
         };
     });

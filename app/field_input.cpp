@@ -3,6 +3,7 @@
 #include <filesystem>
 
 #include "core/error.h"
+#include "csg/scene.h"
 #include "implicit/shape_spec.h"
 #include "implicit/tape.h"
 #include "volume/sample.h"
@@ -25,11 +26,22 @@ void addFieldOptions(CLI::App* cmd, FieldInput& in, bool sampling) {
     }
 }
 
-bool namesField(const std::string& file, const FieldInput& in) {
-    if (!in.shape.empty() || !in.expr.empty()) return true;
+namespace {
+std::string extensionOf(const std::string& file) {
     std::string ext = std::filesystem::path(file).extension().string();
     for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    return ext == ".vm";
+    return ext;
+}
+}  // namespace
+
+bool isSceneFile(const std::string& file) {
+    const std::string ext = extensionOf(file);
+    return ext == ".isf" || ext == ".csg" || ext == ".scad";
+}
+
+bool namesField(const std::string& file, const FieldInput& in) {
+    if (!in.shape.empty() || !in.expr.empty()) return true;
+    return extensionOf(file) == ".vm" || isSceneFile(file);
 }
 
 implicit::FieldPtr makeField(const std::string& file, const FieldInput& in, implicit::Box3& clip) {
@@ -41,6 +53,11 @@ implicit::FieldPtr makeField(const std::string& file, const FieldInput& in, impl
         f = implicit::parseShape(in.shape);
     } else if (!in.expr.empty()) {
         f = implicit::makeTapeField(implicit::parseExpression(in.expr), implicit::Box3::everything(), in.expr);
+    } else if (isSceneFile(file)) {
+        csg::Scene scene = csg::readScene(file);
+        for (const auto& w : scene.warnings)
+            std::fprintf(stderr, "isoforge: warning: %s: %s\n", w.loc.toString().c_str(), w.message.c_str());
+        f = scene.root;
     } else {
         const auto tape = implicit::readVmFile(file);
         f = implicit::makeTapeField(tape, implicit::Box3::everything(),

@@ -22,6 +22,9 @@ struct FieldInput {
 /// --shape, --expr, --box, and (with `sampling`) --voxel, --resolution, --half-width.
 void addFieldOptions(CLI::App* cmd, FieldInput& in, bool sampling);
 
+/// True for scene files (.isf, .csg, .scad).
+bool isSceneFile(const std::string& file);
+
 /// True if the command's input is a field rather than a volume file.
 bool namesField(const std::string& file, const FieldInput& in);
 

@@ -52,6 +52,7 @@ int main(int argc, char** argv) {
     app::addSampleCommand(app, global, commands);
     app::addSliceCommand(app, global, commands);
     app::addShapesCommand(app, global, commands);
+    app::addCheckSceneCommand(app, global, commands);
 
     // --version works without a subcommand.
     for (int i = 1; i < argc; ++i)

@@ -7,6 +7,7 @@
 #include <string>
 
 #include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
 
 #include "implicit/interval.h"
 
@@ -55,6 +56,9 @@ public:
     virtual FieldPtr simplify(const Box3& box) const { return nullptr; }
     /// A short description, e.g. "torus(R=1, r=0.3)".
     virtual std::string describe() const = 0;
+    /// The colour (RGBA) of the part of the surface nearest p, as CSG colour nodes assign it;
+    /// alpha 0 means "no colour given".
+    virtual glm::vec4 colorAt(const glm::vec3& p) const { return glm::vec4(0.f); }
 };
 
 /// `f.simplify(box)` if it gives something, else `f` itself.

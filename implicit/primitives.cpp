@@ -307,6 +307,7 @@ public:
         return c ? std::make_shared<Transformed>(c, m_) : nullptr;
     }
     std::string describe() const override { return "transform(" + child_->describe() + ")"; }
+    glm::vec4 colorAt(const glm::vec3& p) const override { return child_->colorAt(local(p)); }
 
 private:
     glm::vec3 local(const glm::vec3& p) const { return glm::vec3(inv_ * glm::dvec4(p, 1.0)); }
@@ -353,6 +354,8 @@ public:
         return s.str();
     }
 
+    glm::vec4 colorAt(const glm::vec3& p) const override { return child_->colorAt(p); }
+
 private:
     float apply(float v) const { return (shell_ ? std::abs(v) : v) - r_; }
     FieldPtr child_;
@@ -381,6 +384,7 @@ public:
         return s ? std::make_shared<Clipped>(s, box_) : nullptr;
     }
     std::string describe() const override { return child_->describe(); }
+    glm::vec4 colorAt(const glm::vec3& p) const override { return child_->colorAt(p); }
 
 private:
     float boxValue(const glm::vec3& p) const { return boxDistance(p - box_.centre(), 0.5f * box_.size()); }

@@ -314,7 +314,7 @@ TriMesh readPly(const std::filesystem::path& path, const std::string& data) {
                           " bytes of data");
         const bool isVertex = e.name == "vertex";
         const bool isFace = e.name == "face";
-        int ix = -1, iy = -1, iz = -1, inx = -1, iny = -1, inz = -1, iface = -1;
+        int ix = -1, iy = -1, iz = -1, inx = -1, iny = -1, inz = -1, iface = -1, ir = -1, ig = -1, ib = -1;
         for (int k = 0; k < static_cast<int>(e.properties.size()); ++k) {
             const std::string& n = e.properties[k].name;
             if (isVertex && !e.properties[k].isList) {
@@ -330,6 +330,12 @@ TriMesh readPly(const std::filesystem::path& path, const std::string& data) {
                     iny = k;
                 else if (n == "nz")
                     inz = k;
+                else if (n == "red")
+                    ir = k;
+                else if (n == "green")
+                    ig = k;
+                else if (n == "blue")
+                    ib = k;
             }
             if (isFace && e.properties[k].isList && (n == "vertex_indices" || n == "vertex_index")) iface = k;
         }
@@ -338,6 +344,7 @@ TriMesh readPly(const std::filesystem::path& path, const std::string& data) {
                 throw IoError(file + ":" + std::to_string(e.headerLine) + ": vertex element lacks x, y or z");
             mesh.positions.resize(e.count);
             if (inx >= 0 && iny >= 0 && inz >= 0) mesh.normals.resize(e.count);
+            if (ir >= 0 && ig >= 0 && ib >= 0) mesh.colors.resize(e.count);
         }
         if (isFace) {
             if (iface < 0)
@@ -383,6 +390,10 @@ TriMesh readPly(const std::filesystem::path& path, const std::string& data) {
             if (isVertex) {
                 mesh.positions[i] = glm::vec3(values[ix], values[iy], values[iz]);
                 if (!mesh.normals.empty()) mesh.normals[i] = glm::vec3(values[inx], values[iny], values[inz]);
+                if (!mesh.colors.empty()) {
+                    const bool bytes = e.properties[static_cast<std::size_t>(ir)].type == PlyType::UInt8;
+                    mesh.colors[i] = glm::vec3(values[ir], values[ig], values[ib]) / (bytes ? 255.f : 1.f);
+                }
             } else if (isFace) {
                 triangulateFace(mesh, face);
             }
@@ -395,19 +406,27 @@ TriMesh readPly(const std::filesystem::path& path, const std::string& data) {
 void writePly(const std::filesystem::path& path, const TriMesh& mesh, bool ascii) {
     AtomicFile out(path);
     const bool normals = mesh.normals.size() == mesh.positions.size() && !mesh.normals.empty();
+    const bool colors = mesh.colors.size() == mesh.positions.size() && !mesh.colors.empty();
+    auto byte = [](float c) { return static_cast<unsigned>(std::lround(std::clamp(c, 0.f, 1.f) * 255.f)); };
     std::ostringstream h;
     h << "ply\nformat " << (ascii ? "ascii" : "binary_little_endian") << " 1.0\ncomment made by isoforge\n"
       << "element vertex " << mesh.positions.size() << "\nproperty float x\nproperty float y\nproperty float z\n";
     if (normals) h << "property float nx\nproperty float ny\nproperty float nz\n";
+    if (colors) h << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
     h << "element face " << mesh.triangles.size() << "\nproperty list uchar int vertex_indices\nend_header\n";
     out.write(h.str());
     if (ascii) {
         char buf[256];
         for (std::size_t i = 0; i < mesh.positions.size(); ++i) {
             const glm::vec3& p = mesh.positions[i];
-            int n = normals ? std::snprintf(buf, sizeof buf, "%.9g %.9g %.9g %.6g %.6g %.6g\n", p.x, p.y, p.z,
-                                            mesh.normals[i].x, mesh.normals[i].y, mesh.normals[i].z)
-                            : std::snprintf(buf, sizeof buf, "%.9g %.9g %.9g\n", p.x, p.y, p.z);
+            int n = std::snprintf(buf, sizeof buf, "%.9g %.9g %.9g", p.x, p.y, p.z);
+            if (normals)
+                n += std::snprintf(buf + n, sizeof buf - static_cast<std::size_t>(n), " %.6g %.6g %.6g",
+                                   mesh.normals[i].x, mesh.normals[i].y, mesh.normals[i].z);
+            if (colors)
+                n += std::snprintf(buf + n, sizeof buf - static_cast<std::size_t>(n), " %u %u %u",
+                                   byte(mesh.colors[i].r), byte(mesh.colors[i].g), byte(mesh.colors[i].b));
+            buf[n++] = '\n';
             out.write(buf, static_cast<std::size_t>(n));
         }
         for (const glm::uvec3& t : mesh.triangles) {
@@ -416,17 +435,22 @@ void writePly(const std::filesystem::path& path, const TriMesh& mesh, bool ascii
         }
     } else {
         static_assert(std::endian::native == std::endian::little, "binary PLY writer assumes a little-endian host");
-        std::vector<float> v;
-        const std::size_t stride = normals ? 6 : 3;
         constexpr std::size_t chunk = 1 << 16;
-        v.reserve(chunk * stride);
+        std::vector<unsigned char> v;
+        v.reserve(chunk * 27);
+        auto putFloats = [&](const glm::vec3& q) {
+            const auto* bytes = reinterpret_cast<const unsigned char*>(&q);
+            v.insert(v.end(), bytes, bytes + 12);
+        };
         for (std::size_t b = 0; b < mesh.positions.size(); b += chunk) {
             v.clear();
             for (std::size_t i = b; i < std::min(mesh.positions.size(), b + chunk); ++i) {
-                v.insert(v.end(), {mesh.positions[i].x, mesh.positions[i].y, mesh.positions[i].z});
-                if (normals) v.insert(v.end(), {mesh.normals[i].x, mesh.normals[i].y, mesh.normals[i].z});
+                putFloats(mesh.positions[i]);
+                if (normals) putFloats(mesh.normals[i]);
+                if (colors)
+                    for (int k = 0; k < 3; ++k) v.push_back(static_cast<unsigned char>(byte(mesh.colors[i][k])));
             }
-            out.write(v.data(), v.size() * sizeof(float));
+            out.write(v.data(), v.size());
         }
         std::vector<unsigned char> f;
         f.reserve(chunk * 13);

@@ -70,13 +70,14 @@ std::size_t weldIdenticalPositions(TriMesh& mesh) {
     }
     std::vector<std::uint32_t> remap(n, 0);
     std::vector<glm::vec3> positions;
-    std::vector<glm::vec3> normals;
+    std::vector<glm::vec3> normals, colors;
     positions.reserve(n);
     for (std::size_t i = 0; i < n; ++i) {
         if (representative[i] == i) {
             remap[i] = static_cast<std::uint32_t>(positions.size());
             positions.push_back(mesh.positions[i]);
             if (!mesh.normals.empty()) normals.push_back(mesh.normals[i]);
+            if (!mesh.colors.empty()) colors.push_back(mesh.colors[i]);
         }
     }
     for (glm::uvec3& t : mesh.triangles)
@@ -84,6 +85,7 @@ std::size_t weldIdenticalPositions(TriMesh& mesh) {
     std::size_t removed = n - positions.size();
     mesh.positions = std::move(positions);
     mesh.normals = std::move(normals);
+    mesh.colors = std::move(colors);
     return removed;
 }
 

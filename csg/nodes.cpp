@@ -1,0 +1,182 @@
+#include "csg/nodes.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+namespace isoforge::csg {
+
+using implicit::Box3;
+using implicit::Interval;
+
+namespace {
+
+constexpr float kFar = 1e30f;
+
+/// Polynomial smooth minimum of radius k (k > 0): equals min(a, b) when |a - b| >= k, and is at most
+/// k / 4 below it.
+inline float smin(float a, float b, float k) {
+    const float h = std::max(k - std::abs(a - b), 0.f) / k;
+    return std::min(a, b) - h * h * k * 0.25f;
+}
+
+class Boolean final : public implicit::Field {
+public:
+    Boolean(BoolOp op, std::vector<FieldPtr> c, float k) : op_(op), children_(std::move(c)), k_(k) {}
+
+    float value(const glm::vec3& p) const override {
+        float v = first(children_[0]->value(p));
+        for (std::size_t i = 1; i < children_.size(); ++i) v = combine(v, other(children_[i]->value(p)));
+        return finish(v);
+    }
+    void values(std::span<const glm::vec3> p, std::span<float> out) const override {
+        children_[0]->values(p, out);
+        for (float& v : out) v = first(v);
+        std::vector<float> tmp(p.size());
+        for (std::size_t i = 1; i < children_.size(); ++i) {
+            children_[i]->values(p, tmp);
+            for (std::size_t k = 0; k < p.size(); ++k) out[k] = combine(out[k], other(tmp[k]));
+        }
+        for (float& v : out) v = finish(v);
+    }
+    Interval bound(const Box3& box) const override {
+        Interval v = first(children_[0]->bound(box));
+        for (std::size_t i = 1; i < children_.size(); ++i) {
+            const Interval c = other(children_[i]->bound(box));
+            v = isMin() ? implicit::min(v, c) : implicit::max(v, c);
+        }
+        // Smooth blends dip up to k/4 below the min (or above the max).
+        if (k_ > 0) v = isMin() ? Interval(v.lo - 0.25f * k_, v.hi) : Interval(v.lo, v.hi + 0.25f * k_);
+        return isMin() ? v : (op_ == BoolOp::Union ? v : v);
+    }
+    Box3 bounds() const override {
+        Box3 b = children_[0]->bounds();
+        if (op_ == BoolOp::Union) {
+            for (std::size_t i = 1; i < children_.size(); ++i) b = b.unite(children_[i]->bounds());
+            if (k_ > 0 && b.isBounded()) b = b.expanded(k_);
+        } else if (op_ == BoolOp::Intersection) {
+            for (std::size_t i = 1; i < children_.size(); ++i) b = b.intersect(children_[i]->bounds());
+        }
+        return b;
+    }
+    bool isDistance() const override {
+        for (const auto& c : children_)
+            if (!c->isDistance()) return false;
+        return true;
+    }
+    FieldPtr simplify(const Box3& box) const override {
+        // Bounds of the (transformed) children over the box.
+        std::vector<Interval> b(children_.size());
+        for (std::size_t i = 0; i < children_.size(); ++i)
+            b[i] = i == 0 ? first(children_[i]->bound(box)) : other(children_[i]->bound(box));
+        std::vector<std::size_t> keep;
+        if (isMin()) {  // union: a child whose lowest value is above someone's highest (+ blend) never wins
+            float best = kFar;
+            for (const auto& i : b) best = std::min(best, i.hi);
+            for (std::size_t i = 0; i < b.size(); ++i)
+                if (b[i].lo <= best + k_) keep.push_back(i);
+        } else {  // intersection / difference: a term below someone's lowest (- blend) never wins
+            float best = -kFar;
+            for (const auto& i : b) best = std::max(best, i.lo);
+            for (std::size_t i = 0; i < b.size(); ++i)
+                if (b[i].hi >= best - k_ || (op_ == BoolOp::Difference && i == 0)) keep.push_back(i);
+        }
+        bool changed = keep.size() != children_.size();
+        std::vector<FieldPtr> kids;
+        for (std::size_t i : keep) {
+            FieldPtr s = children_[i]->simplify(box);
+            changed = changed || s;
+            kids.push_back(s ? s : children_[i]);
+        }
+        if (!changed) return nullptr;
+        if (kids.size() == 1 && (op_ != BoolOp::Difference || keep[0] == 0)) return kids[0];
+        if (op_ == BoolOp::Difference && keep[0] != 0) return nullptr;  // the first child is always kept
+        return std::make_shared<Boolean>(op_, std::move(kids), k_);
+    }
+    std::string describe() const override {
+        static const char* names[] = {"union", "intersection", "difference"};
+        std::ostringstream s;
+        s << (k_ > 0 ? "smooth_" : "") << names[static_cast<int>(op_)] << "(" << children_.size() << " children)";
+        return s.str();
+    }
+    glm::vec4 colorAt(const glm::vec3& p) const override {
+        // The child that decides the value there.
+        std::size_t win = 0;
+        float v = first(children_[0]->value(p));
+        for (std::size_t i = 1; i < children_.size(); ++i) {
+            const float c = other(children_[i]->value(p));
+            if (isMin() ? c < v : c > v) {
+                v = c;
+                win = i;
+            }
+        }
+        return children_[win]->colorAt(p);
+    }
+
+private:
+    bool isMin() const { return op_ == BoolOp::Union; }
+    float first(float v) const { return v; }
+    Interval first(Interval v) const { return v; }
+    float other(float v) const { return op_ == BoolOp::Difference ? -v : v; }
+    Interval other(Interval v) const { return op_ == BoolOp::Difference ? -v : v; }
+    float combine(float a, float b) const {
+        if (k_ > 0) return isMin() ? smin(a, b, k_) : -smin(-a, -b, k_);
+        return isMin() ? std::min(a, b) : std::max(a, b);
+    }
+    float finish(float v) const { return v; }
+
+    BoolOp op_;
+    std::vector<FieldPtr> children_;
+    float k_;
+};
+
+class Colored final : public implicit::Field {
+public:
+    Colored(FieldPtr c, glm::vec4 rgba) : child_(std::move(c)), rgba_(rgba) {}
+    float value(const glm::vec3& p) const override { return child_->value(p); }
+    void values(std::span<const glm::vec3> p, std::span<float> out) const override { child_->values(p, out); }
+    Interval bound(const Box3& b) const override { return child_->bound(b); }
+    Box3 bounds() const override { return child_->bounds(); }
+    bool isDistance() const override { return child_->isDistance(); }
+    FieldPtr simplify(const Box3& b) const override {
+        FieldPtr s = child_->simplify(b);
+        return s ? std::make_shared<Colored>(s, rgba_) : nullptr;
+    }
+    std::string describe() const override { return child_->describe(); }
+    glm::vec4 colorAt(const glm::vec3& p) const override {
+        const glm::vec4 inner = child_->colorAt(p);
+        return inner.a > 0 ? inner : rgba_;
+    }
+
+private:
+    FieldPtr child_;
+    glm::vec4 rgba_;
+};
+
+class Empty final : public implicit::Field {
+public:
+    float value(const glm::vec3&) const override { return kFar; }
+    Interval bound(const Box3&) const override { return Interval(kFar); }
+    Box3 bounds() const override { return Box3{}; }
+    std::string describe() const override { return "empty"; }
+};
+
+}  // namespace
+
+FieldPtr makeBoolean(BoolOp op, std::vector<FieldPtr> children, float blend) {
+    if (children.empty()) throw std::invalid_argument("a boolean needs at least one child");
+    if (!(blend >= 0.f)) throw std::invalid_argument("the blend radius must not be negative");
+    if (children.size() == 1) return children[0];
+    return std::make_shared<Boolean>(op, std::move(children), blend);
+}
+
+FieldPtr makeColored(FieldPtr child, const glm::vec4& rgba) {
+    return std::make_shared<Colored>(std::move(child), rgba);
+}
+
+FieldPtr makeEmpty() {
+    return std::make_shared<Empty>();
+}
+
+}  // namespace isoforge::csg

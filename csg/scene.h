@@ -1,0 +1,58 @@
+#pragma once
+/// @file Scenes: a CSG tree with camera, lights and background, read from our scene language — a
+/// superset of the CSG subset of OpenSCAD, so that `openscad -o model.csg model.scad` exports read
+/// as they are. The language is documented in docs/scene-language.md.
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "implicit/field.h"
+
+namespace isoforge::csg {
+
+/// A place in a scene file, carried into what the parser builds.
+struct FileLoc {
+    std::string file;
+    int line = 0, column = 0;
+    std::string toString() const { return file + ":" + std::to_string(line) + ":" + std::to_string(column); }
+};
+
+struct Warning {
+    FileLoc loc;
+    std::string message;
+};
+
+struct Camera {
+    bool given = false;
+    glm::vec3 eye{0.f, -5.f, 3.f}, target{0.f}, up{0.f, 0.f, 1.f};
+    float fov = 40.f;  ///< vertical, degrees
+    bool orthographic = false;
+};
+
+struct Light {
+    bool point = false;  ///< point light at `vector`, else directional towards `vector`
+    glm::vec3 vector{-1.f, -1.f, -2.f};
+    glm::vec3 color{1.f};
+    float intensity = 1.f;
+};
+
+struct Scene {
+    implicit::FieldPtr root;  ///< negative inside; never null (an empty scene is an empty field)
+    Camera camera;
+    std::vector<Light> lights;
+    glm::vec3 backgroundTop{0.85f, 0.9f, 1.f}, backgroundBottom{0.55f, 0.6f, 0.7f};
+    std::vector<Warning> warnings;
+    std::size_t primitives = 0;  ///< leaf shapes in the tree
+    std::string tree;            ///< an indented outline of the tree, for check-scene
+};
+
+/// Parses and evaluates a scene. Several errors are reported at once where possible.
+/// @throw ParseError with one "file:line:column: message" line per error, each followed by the
+///        source line and a caret under the spot.
+Scene parseScene(std::string_view text, const std::string& fileName);
+/// Reads a file (.isf, .csg, .scad without modules) and parses it; relative paths inside
+/// (vm("..."), volume("..."), mesh("...")) are relative to the file's directory.
+Scene readScene(const std::string& path);
+
+}  // namespace isoforge::csg

@@ -1,0 +1,161 @@
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "core/error.h"
+#include "csg/nodes.h"
+#include "csg/scene.h"
+#include "implicit/primitives.h"
+#include "test_util.h"
+#include "volume/marching_cubes.h"
+#include "volume/sample.h"
+#include "volume/vdb_io.h"
+
+using namespace isoforge;
+
+namespace {
+struct Init {
+    Init() { volume::initializeOpenVdb(); }
+} init;
+
+mesh::MeshReport meshScene(const implicit::FieldPtr& f, float voxel) {
+    volume::SampleOptions o;
+    o.voxelSize = voxel;
+    auto grid = volume::sample(f, o);
+    return test::expectClosedSurface(volume::extractIsosurface(*grid), f->describe());
+}
+std::string errorOf(const std::string& text) {
+    try {
+        csg::parseScene(text, "s.isf");
+    } catch (const ParseError& e) {
+        return e.what();
+    }
+    return "no error";
+}
+}  // namespace
+
+TEST(Csg, VolumesOfBooleansMatchAnalyticValues) {
+    // Cube (edge 2) minus a sphere of radius 1 at a corner: 8 - pi/6.
+    auto cube = implicit::makeBox(glm::vec3(2.f));
+    auto ball = implicit::makeTranslated(implicit::makeSphere(1.f), glm::vec3(1.f));
+    auto r = meshScene(csg::makeDifference({cube, ball}), 0.01f);
+    EXPECT_NEAR(r.volume, 8.0 - M_PI / 6.0, 0.005 * 7.48);
+    // Steinmetz solids: two cylinders 16/3 r^3, three 8 (2 - sqrt 2) r^3.
+    auto cx = implicit::makeTransformed(
+        implicit::makeCylinder(1.f, 4.f),
+        glm::mat4(glm::vec4(0, 0, 1, 0), glm::vec4(0, 1, 0, 0), glm::vec4(-1, 0, 0, 0), glm::vec4(0, 0, 0, 1)));
+    auto cy = implicit::makeTransformed(
+        implicit::makeCylinder(1.f, 4.f),
+        glm::mat4(glm::vec4(1, 0, 0, 0), glm::vec4(0, 0, 1, 0), glm::vec4(0, -1, 0, 0), glm::vec4(0, 0, 0, 1)));
+    auto cz = implicit::makeCylinder(1.f, 4.f);
+    r = meshScene(csg::makeIntersection({cx, cz}), 0.01f);
+    EXPECT_NEAR(r.volume, 16.0 / 3.0, 0.005 * 5.33);
+    r = meshScene(csg::makeIntersection({cx, cy, cz}), 0.01f);
+    EXPECT_NEAR(r.volume, 8.0 * (2.0 - std::sqrt(2.0)), 0.005 * 4.69);
+    // Union of overlapping spheres and a smooth union: closed, one component, the blend adds volume.
+    auto a = implicit::makeTranslated(implicit::makeSphere(0.5f), glm::vec3(-0.45f, 0, 0));
+    auto b = implicit::makeTranslated(implicit::makeSphere(0.5f), glm::vec3(0.45f, 0, 0));
+    const auto hard = meshScene(csg::makeUnion({a, b}), 0.01f);
+    const auto soft = meshScene(csg::makeUnion({a, b}, 0.3f), 0.01f);
+    EXPECT_EQ(soft.components, 1u);
+    EXPECT_GT(soft.volume, hard.volume);
+    meshScene(csg::makeIntersection({a, b}, 0.2f), 0.01f);
+    meshScene(csg::makeDifference({a, b}, 0.2f), 0.01f);
+}
+
+TEST(Csg, PruningKeepsValuesAndDropsFarChildren) {
+    std::vector<implicit::FieldPtr> kids;
+    for (int i = 0; i < 100; ++i)
+        kids.push_back(implicit::makeTranslated(implicit::makeSphere(0.2f), glm::vec3(i * 1.f, 0, 0)));
+    auto u = csg::makeUnion(kids);
+    const implicit::Box3 box{glm::vec3(-0.1f), glm::vec3(0.1f)};
+    auto s = u->simplify(box);
+    ASSERT_TRUE(s);
+    for (float x = -0.1f; x <= 0.1f; x += 0.02f)
+        EXPECT_FLOAT_EQ(s->value(glm::vec3(x, 0.1f, 0)), u->value(glm::vec3(x, 0.1f, 0)));
+    EXPECT_EQ(s->describe(), kids[0]->describe());  // only the one sphere is left
+}
+
+TEST(Scene, LanguageConstructsAndColours) {
+    const auto s = csg::parseScene(R"(
+        // comment
+        r = 2; h = r * 3;
+        camera(eye = [10, -10, 8], target = [0, 0, 0], fov = 35);
+        light(direction = [-1, -1, -2]);
+        background(top = [1, 1, 1], bottom = [0.5, 0.5, 0.5]);
+        color("red") difference() {
+            cube(size = [4, 4, 4], center = true);
+            cylinder(h = h, r = 1, center = true);
+        }
+        translate([10, 0, 0]) color([0, 0, 1]) sphere(d = 2 * r);
+        %sphere(100);       /* background: not part of the result */
+        *cube(100);         // disabled
+    )",
+                                   "s.isf");
+    EXPECT_TRUE(s.camera.given);
+    EXPECT_FLOAT_EQ(s.camera.fov, 35.f);
+    EXPECT_EQ(s.lights.size(), 1u);
+    EXPECT_EQ(s.primitives, 3u);
+    EXPECT_NEAR(s.root->value(glm::vec3(10, 0, 0)), -2.f, 1e-5f);
+    EXPECT_GT(s.root->value(glm::vec3(0, 0, 0)), 0.f);  // drilled
+    EXPECT_EQ(s.root->colorAt(glm::vec3(2, 0, 0)), glm::vec4(1, 0, 0, 1));
+    EXPECT_EQ(s.root->colorAt(glm::vec3(10, 2, 0)), glm::vec4(0, 0, 1, 1));
+    EXPECT_LT(s.root->bounds().max.x, 13.f);  // the % and * objects are not there
+    // $fn = 6 is a hexagonal prism: a vertex on +x at the circumradius, a flat side on +y.
+    const auto hex = csg::parseScene("cylinder(h = 2, r = 1, center = true, $fn = 6);", "h.isf");
+    EXPECT_NEAR(hex.root->value(glm::vec3(1, 0, 0)), 0.f, 1e-5f);
+    EXPECT_NEAR(hex.root->value(glm::vec3(0, std::sqrt(3.f) / 2, 0)), 0.f, 1e-5f);
+    // ! makes one subtree the whole result.
+    const auto bang = csg::parseScene("cube(1); !translate([5, 0, 0]) sphere(1);", "b.isf");
+    EXPECT_GT(bang.root->value(glm::vec3(0.5f)), 0.f);
+    // A difference that removes nothing is a warning pointing at its line.
+    const auto w = csg::parseScene("\ndifference() { cube(1); translate([9, 0, 0]) cube(1); }", "w.isf");
+    ASSERT_EQ(w.warnings.size(), 1u);
+    EXPECT_EQ(w.warnings[0].loc.line, 2);
+}
+
+TEST(Scene, ErrorsNameFileLineColumnWithACaretAndSeveralAtOnce) {
+    std::string e = errorOf("cube(1);\nsphere(r = );\n");
+    EXPECT_NE(e.find("s.isf:2:12: expected a value"), std::string::npos) << e;
+    EXPECT_NE(e.find("\n  sphere(r = );\n             ^"), std::string::npos) << e;
+    e = errorOf("minkowski() { cube(1); sphere(1); }\nhull() { cube(1); }\n");
+    EXPECT_NE(e.find("s.isf:1:1: 'minkowski' is not supported"), std::string::npos) << e;
+    EXPECT_NE(e.find("s.isf:2:1: 'hull' is not supported"), std::string::npos) << e;
+    EXPECT_NE(e.find("2 errors"), std::string::npos) << e;
+    EXPECT_NE(errorOf("frobnicate(1);").find("unknown module 'frobnicate'"), std::string::npos);
+    EXPECT_NE(errorOf("cube(size = q);").find("unknown variable 'q'"), std::string::npos);
+    EXPECT_NE(errorOf("cube(1)").find("expected"), std::string::npos);
+    EXPECT_NE(errorOf("union() { cube(1);").find("'}'"), std::string::npos);
+    EXPECT_NE(errorOf("sphere(r = -1);").find("radius must be positive"), std::string::npos);
+    EXPECT_NE(errorOf("color(\"nocolour\") cube(1);").find("unknown colour"), std::string::npos);
+    EXPECT_NE(errorOf("x = \"abc;").find("string not closed"), std::string::npos);
+    EXPECT_NE(errorOf("/* open").find("comment not closed"), std::string::npos);
+    EXPECT_NE(errorOf("module m() {}").find("'module' is not supported"), std::string::npos);
+}
+
+TEST(Scene, RealOpenScadExportsMatchOpenScadsOwnMeshes) {
+    const auto dir = test::sourceDir() / "tests/data/openscad";
+    struct Ref {
+        const char* name;
+        std::size_t components;
+        long long genus;
+        double volume;
+        float voxel;
+    };
+    // See tests/data/openscad/REFERENCES.txt: OpenSCAD's STL at $fn = 96.
+    for (const Ref& ref : {Ref{"CSG", 3, 5, 7824.318, 0.2f}, Ref{"steinmetz", 1, 0, 4681.275, 0.15f},
+                           Ref{"hexnut", 1, 1, 1450.59, 0.1f}}) {
+        const csg::Scene s = csg::readScene((dir / (std::string(ref.name) + ".csg")).string());
+        const auto r = meshScene(s.root, ref.voxel);
+        EXPECT_EQ(r.components, ref.components) << ref.name;
+        EXPECT_EQ(r.genus().value_or(-1), ref.genus) << ref.name;
+        EXPECT_NEAR(r.volume, ref.volume, 0.005 * ref.volume) << ref.name;
+    }
+    try {
+        csg::readScene((dir / "rotate_extrude.csg").string());
+        FAIL() << "text() must be refused";
+    } catch (const ParseError& e) {
+        EXPECT_NE(std::string(e.what()).find("'text' is not supported"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("rotate_extrude.csg:"), std::string::npos) << e.what();
+    }
+}
