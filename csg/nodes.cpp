@@ -26,29 +26,27 @@ public:
     Boolean(BoolOp op, std::vector<FieldPtr> c, float k) : op_(op), children_(std::move(c)), k_(k) {}
 
     float value(const glm::vec3& p) const override {
-        float v = first(children_[0]->value(p));
+        float v = children_[0]->value(p);
         for (std::size_t i = 1; i < children_.size(); ++i) v = combine(v, other(children_[i]->value(p)));
-        return finish(v);
+        return v;
     }
     void values(std::span<const glm::vec3> p, std::span<float> out) const override {
         children_[0]->values(p, out);
-        for (float& v : out) v = first(v);
         std::vector<float> tmp(p.size());
         for (std::size_t i = 1; i < children_.size(); ++i) {
             children_[i]->values(p, tmp);
             for (std::size_t k = 0; k < p.size(); ++k) out[k] = combine(out[k], other(tmp[k]));
         }
-        for (float& v : out) v = finish(v);
     }
     Interval bound(const Box3& box) const override {
-        Interval v = first(children_[0]->bound(box));
+        Interval v = children_[0]->bound(box);
         for (std::size_t i = 1; i < children_.size(); ++i) {
             const Interval c = other(children_[i]->bound(box));
             v = isMin() ? implicit::min(v, c) : implicit::max(v, c);
         }
         // Smooth blends dip up to k/4 below the min (or above the max).
         if (k_ > 0) v = isMin() ? Interval(v.lo - 0.25f * k_, v.hi) : Interval(v.lo, v.hi + 0.25f * k_);
-        return isMin() ? v : (op_ == BoolOp::Union ? v : v);
+        return v;
     }
     Box3 bounds() const override {
         Box3 b = children_[0]->bounds();
@@ -69,7 +67,7 @@ public:
         // Bounds of the (transformed) children over the box.
         std::vector<Interval> b(children_.size());
         for (std::size_t i = 0; i < children_.size(); ++i)
-            b[i] = i == 0 ? first(children_[i]->bound(box)) : other(children_[i]->bound(box));
+            b[i] = i == 0 ? children_[i]->bound(box) : other(children_[i]->bound(box));
         std::vector<std::size_t> keep;
         if (isMin()) {  // union: a child whose lowest value is above someone's highest (+ blend) never wins
             float best = kFar;
@@ -103,7 +101,7 @@ public:
     glm::vec4 colorAt(const glm::vec3& p) const override {
         // The child that decides the value there.
         std::size_t win = 0;
-        float v = first(children_[0]->value(p));
+        float v = children_[0]->value(p);
         for (std::size_t i = 1; i < children_.size(); ++i) {
             const float c = other(children_[i]->value(p));
             if (isMin() ? c < v : c > v) {
@@ -116,15 +114,12 @@ public:
 
 private:
     bool isMin() const { return op_ == BoolOp::Union; }
-    float first(float v) const { return v; }
-    Interval first(Interval v) const { return v; }
     float other(float v) const { return op_ == BoolOp::Difference ? -v : v; }
     Interval other(Interval v) const { return op_ == BoolOp::Difference ? -v : v; }
     float combine(float a, float b) const {
         if (k_ > 0) return isMin() ? smin(a, b, k_) : -smin(-a, -b, k_);
         return isMin() ? std::min(a, b) : std::max(a, b);
     }
-    float finish(float v) const { return v; }
 
     BoolOp op_;
     std::vector<FieldPtr> children_;

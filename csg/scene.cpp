@@ -781,7 +781,7 @@ public:
     Evaluator(Diagnostics& d, Scene& scene, std::filesystem::path dir) : d_(d), scene_(scene), dir_(std::move(dir)) {}
 
     /// Fields of the statements in order (assignments first update the scope, as OpenSCAD does).
-    std::vector<FieldPtr> run(const std::vector<Statement>& list, Scope& scope, int depth, bool twoD = false) {
+    std::vector<FieldPtr> run(const std::vector<Statement>& list, Scope& scope, int depth) {
         for (const Statement& s : list)
             if (s.assignment) {
                 try {
@@ -808,7 +808,6 @@ public:
                 d_.error(s.line, s.col, e.what());
             }
         }
-        (void)twoD;
         return out;
     }
     FieldPtr rootOverride() const { return root_; }
