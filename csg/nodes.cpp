@@ -98,7 +98,7 @@ public:
         s << (k_ > 0 ? "smooth_" : "") << names[static_cast<int>(op_)] << "(" << children_.size() << " children)";
         return s.str();
     }
-    glm::vec4 colorAt(const glm::vec3& p) const override {
+    const implicit::Material* materialAt(const glm::vec3& p) const override {
         // The child that decides the value there.
         std::size_t win = 0;
         float v = children_[0]->value(p);
@@ -109,7 +109,7 @@ public:
                 win = i;
             }
         }
-        return children_[win]->colorAt(p);
+        return children_[win]->materialAt(p);
     }
 
 private:
@@ -128,7 +128,7 @@ private:
 
 class Colored final : public implicit::Field {
 public:
-    Colored(FieldPtr c, glm::vec4 rgba) : child_(std::move(c)), rgba_(rgba) {}
+    Colored(FieldPtr c, std::shared_ptr<const implicit::Material> m) : child_(std::move(c)), m_(std::move(m)) {}
     float value(const glm::vec3& p) const override { return child_->value(p); }
     void values(std::span<const glm::vec3> p, std::span<float> out) const override { child_->values(p, out); }
     Interval bound(const Box3& b) const override { return child_->bound(b); }
@@ -136,17 +136,17 @@ public:
     bool isDistance() const override { return child_->isDistance(); }
     FieldPtr simplify(const Box3& b) const override {
         FieldPtr s = child_->simplify(b);
-        return s ? std::make_shared<Colored>(s, rgba_) : nullptr;
+        return s ? std::make_shared<Colored>(s, m_) : nullptr;
     }
     std::string describe() const override { return child_->describe(); }
-    glm::vec4 colorAt(const glm::vec3& p) const override {
-        const glm::vec4 inner = child_->colorAt(p);
-        return inner.a > 0 ? inner : rgba_;
+    const implicit::Material* materialAt(const glm::vec3& p) const override {
+        const implicit::Material* inner = child_->materialAt(p);
+        return inner ? inner : m_.get();
     }
 
 private:
     FieldPtr child_;
-    glm::vec4 rgba_;
+    std::shared_ptr<const implicit::Material> m_;
 };
 
 class Empty final : public implicit::Field {
@@ -167,7 +167,12 @@ FieldPtr makeBoolean(BoolOp op, std::vector<FieldPtr> children, float blend) {
 }
 
 FieldPtr makeColored(FieldPtr child, const glm::vec4& rgba) {
-    return std::make_shared<Colored>(std::move(child), rgba);
+    implicit::Material m;
+    m.color = rgba;
+    return makeMaterial(std::move(child), m);
+}
+FieldPtr makeMaterial(FieldPtr child, const implicit::Material& m) {
+    return std::make_shared<Colored>(std::move(child), std::make_shared<const implicit::Material>(m));
 }
 
 FieldPtr makeEmpty() {

@@ -29,6 +29,8 @@ inline FieldPtr makeDifference(std::vector<FieldPtr> c, float blend = 0.f) {
 
 /// The child with a colour (RGBA, alpha > 0) for its surface; inner colours win over outer ones.
 FieldPtr makeColored(FieldPtr child, const glm::vec4& rgba);
+/// The child with a material (colour, opacity, Phong terms); inner materials win over outer ones.
+FieldPtr makeMaterial(FieldPtr child, const implicit::Material& m);
 
 /// A field that is empty everywhere (value +infinity-like), for empty groups.
 FieldPtr makeEmpty();

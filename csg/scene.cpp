@@ -22,6 +22,8 @@
 #include "implicit/primitives.h"
 #include "implicit/quadric.h"
 #include "implicit/tape.h"
+#include "mesh/io.h"
+#include "volume/grid_field.h"
 
 namespace isoforge::csg {
 
@@ -943,20 +945,22 @@ private:
         }
         if (n == "linear_extrude") {
             Args a = args({"height", "center", "convexity", "twist", "slices", "scale"});
-            if (a.number("twist", 0.0) != 0.0) throw a.error("twist", "linear_extrude(twist=...) is not supported yet");
+            const double twist = a.number("twist", 0.0);
             const glm::dvec3 sc = a.vec3("scale", glm::dvec3(1.0));
-            if (sc.x != 1.0 || sc.y != 1.0) throw a.error("scale", "linear_extrude(scale=...) is not supported yet");
+            if (sc.x < 0 || sc.y < 0) throw a.error("scale", "linear_extrude scale must not be negative");
             note(depth, "linear_extrude", s);
             FieldPtr g = group(s, scope, depth);
-            return g ? makeLinearExtrude(g, float(a.number("height", 100.0)), a.boolean("center", false)) : nullptr;
+            return g ? makeLinearExtrude(g, float(a.number("height", 100.0)), a.boolean("center", false), float(twist),
+                                         glm::vec2(float(sc.x), float(sc.y)))
+                     : nullptr;
         }
         if (n == "rotate_extrude") {
             Args a = args({"angle", "convexity"});
-            if (a.number("angle", 360.0) != 360.0)
-                throw a.error("angle", "rotate_extrude(angle=...) other than 360 is not supported yet");
+            const double angle = a.number("angle", 360.0);
+            if (angle == 0 || !std::isfinite(angle)) throw a.error("angle", "rotate_extrude angle must be non-zero");
             note(depth, "rotate_extrude", s);
             FieldPtr g = group(s, scope, depth);
-            return g ? makeRotateExtrude(g) : nullptr;
+            return g ? makeRotateExtrude(g, float(angle)) : nullptr;
         }
         // --- transforms
         if (n == "translate") {
@@ -1054,11 +1058,14 @@ private:
             }
             return makeUnion(std::move(kids), k);
         }
-        if (n == "color") {
-            Args a = args({"c", "alpha"});
+        if (n == "color" || n == "material") {
+            const bool mat = n == "material";
+            Args a = mat ? args({"color", "diffuse", "specular", "shininess", "opacity"}) : args({"c", "alpha"});
+            const std::string key = mat ? "color" : "c";
             glm::vec4 rgba(1.f);
+            if (mat) rgba = glm::vec4(0.8f, 0.8f, 0.8f, 1.f);
             int cl = s.line, cc = s.col;
-            const Value* c = a.raw("c", &cl, &cc);
+            const Value* c = a.raw(key, &cl, &cc);
             if (c && c->kind == Value::String) {
                 bool ok = false;
                 rgba = colorByName(c->s, ok);
@@ -1067,13 +1074,25 @@ private:
                                     "unknown colour '" + c->s + "' (use a name such as red, \"#ff8000\" or [r, g, b])"};
             } else if (c && c->kind == Value::Vector && c->v.size() >= 3) {
                 rgba = glm::vec4(c->v[0].n, c->v[1].n, c->v[2].n, c->v.size() > 3 ? c->v[3].n : 1.0);
-            } else if (c) {
-                throw EvalError{cl, cc, "color needs a name or [r, g, b(, a)]"};
+            } else if (c && c->kind != Value::Undef) {
+                throw EvalError{cl, cc, n + " needs a colour name or [r, g, b(, a)]"};
             }
             if (a.has("alpha")) rgba.a = static_cast<float>(a.number("alpha"));
-            note(depth, "color", s);
+            if (a.has("opacity")) rgba.a = static_cast<float>(a.number("opacity"));
+            if (!(rgba.a >= 0.f && rgba.a <= 1.f))
+                throw a.error(mat ? "opacity" : "alpha", "opacity must be in [0, 1]");
+            implicit::Material m;
+            m.color = glm::vec4(glm::vec3(rgba), std::max(rgba.a, 1e-3f));
+            if (mat) {
+                m.diffuse = float(a.number("diffuse", m.diffuse));
+                m.specular = float(a.number("specular", m.specular));
+                m.shininess = float(a.number("shininess", m.shininess));
+                if (m.diffuse < 0 || m.specular < 0 || m.shininess < 1)
+                    throw a.error("shininess", "diffuse and specular must be >= 0 and shininess >= 1");
+            }
+            note(depth, n, s);
             FieldPtr g = group(s, scope, depth);
-            return g ? makeColored(g, glm::vec4(glm::vec3(rgba), std::max(rgba.a, 1e-3f))) : nullptr;
+            return g ? makeMaterial(g, m) : nullptr;
         }
         // --- our extensions
         if (n == "torus") {
@@ -1137,6 +1156,27 @@ private:
             const std::string file = path(a.string("file"));
             return leaf(implicit::makeTapeField(implicit::readVmFile(file), Box3::everything(), a.string("file")),
                         "vm");
+        }
+        if (n == "volume") {
+            Args a = args({"file", "iso", "grid"});
+            const std::string file = path(a.string("file"));
+            std::optional<std::string> grid;
+            if (a.has("grid")) grid = a.string("grid");
+            return leaf(volume::makeGridField(file, float(a.number("iso", 0.0)), grid), "volume");
+        }
+        if (n == "mesh") {
+            Args a = args({"file"});
+            const std::string file = path(a.string("file"));
+            mesh::TriMesh m = mesh::readMesh(file);
+            std::vector<glm::uvec3> tris(m.triangles.begin(), m.triangles.end());
+            bool closed = false;
+            FieldPtr f = makeTriangleMeshField(std::move(m.positions), std::move(tris), "mesh", &closed);
+            if (!closed)
+                d_.warn(s.line, s.col,
+                        "mesh(\"" + a.string("file") +
+                            "\") is not closed: inside and outside come from the generalized winding number, "
+                            "which bridges small holes");
+            return leaf(f, "mesh");
         }
         if (n == "blobby") {
             Args a = args({"threshold", "kernel"});

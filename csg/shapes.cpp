@@ -17,68 +17,6 @@ namespace {
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
-/// Squared distance from p to triangle abc (closest point by regions, Ericson's method).
-float triangleDistance2(const glm::vec3& p, const glm::vec3& a, const glm::vec3& b, const glm::vec3& c) {
-    const glm::vec3 ab = b - a, ac = c - a, ap = p - a;
-    const float d1 = glm::dot(ab, ap), d2 = glm::dot(ac, ap);
-    auto d2of = [&](const glm::vec3& q) { return glm::dot(p - q, p - q); };
-    if (d1 <= 0 && d2 <= 0) return d2of(a);
-    const glm::vec3 bp = p - b;
-    const float d3 = glm::dot(ab, bp), d4 = glm::dot(ac, bp);
-    if (d3 >= 0 && d4 <= d3) return d2of(b);
-    const float vc = d1 * d4 - d3 * d2;
-    if (vc <= 0 && d1 >= 0 && d3 <= 0) return d2of(a + ab * (d1 / (d1 - d3)));
-    const glm::vec3 cp = p - c;
-    const float d5 = glm::dot(ab, cp), d6 = glm::dot(ac, cp);
-    if (d6 >= 0 && d5 <= d6) return d2of(c);
-    const float vb = d5 * d2 - d1 * d6;
-    if (vb <= 0 && d2 >= 0 && d6 <= 0) return d2of(a + ac * (d2 / (d2 - d6)));
-    const float va = d3 * d6 - d5 * d4;
-    if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) return d2of(b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6))));
-    const float denom = 1.f / (va + vb + vc);
-    return d2of(a + ab * (vb * denom) + ac * (vc * denom));
-}
-
-/// Solid angle of triangle abc seen from p (van Oosterom and Strackee).
-double solidAngle(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
-    const double la = glm::length(a), lb = glm::length(b), lc = glm::length(c);
-    const double num = glm::dot(a, glm::cross(b, c));
-    const double den = la * lb * lc + glm::dot(a, b) * lc + glm::dot(b, c) * la + glm::dot(c, a) * lb;
-    return 2.0 * std::atan2(num, den);
-}
-
-class Polyhedron final : public implicit::Field {
-public:
-    Polyhedron(std::vector<glm::vec3> pts, std::vector<glm::uvec3> tris) : p_(std::move(pts)), t_(std::move(tris)) {
-        for (const auto& q : p_) box_ = box_.unite(Box3{q, q});
-    }
-    float value(const glm::vec3& q) const override {
-        float best = kInf;
-        double winding = 0;
-        for (const auto& t : t_) {
-            best = std::min(best, triangleDistance2(q, p_[t.x], p_[t.y], p_[t.z]));
-            winding += solidAngle(glm::dvec3(p_[t.x] - q), glm::dvec3(p_[t.y] - q), glm::dvec3(p_[t.z] - q));
-        }
-        const float d = std::sqrt(best);
-        return std::abs(winding) > 2.0 * M_PI ? -d : d;  // |winding number| > 1/2: inside
-    }
-    Interval bound(const Box3& b) const override {
-        // 1-Lipschitz; far from the polyhedron, the distance to its box is a cheaper lower bound.
-        const glm::vec3 c = b.centre();
-        const glm::vec3 q = glm::clamp(c, box_.min, box_.max);
-        const float toBox = glm::length(c - q) - b.halfDiagonal();
-        if (toBox > 0) return {toBox, kInf};
-        return implicit::lipschitz(value(c), 1.f, b.halfDiagonal());
-    }
-    Box3 bounds() const override { return box_; }
-    std::string describe() const override { return "polyhedron(" + std::to_string(t_.size()) + " triangles)"; }
-
-private:
-    std::vector<glm::vec3> p_;
-    std::vector<glm::uvec3> t_;
-    Box3 box_;
-};
-
 /// A 2D shape: field of (x, y), constant along z.
 template <class Derived>
 class Shape2D : public implicit::Field {
@@ -159,34 +97,94 @@ private:
 
 class LinearExtrude final : public implicit::Field {
 public:
-    LinearExtrude(FieldPtr c, float h, bool center) : child_(std::move(c)), z0_(center ? -0.5f * h : 0.f), h_(h) {}
+    LinearExtrude(FieldPtr c, float h, bool center, float twistDeg, glm::vec2 scale)
+        : child_(std::move(c)),
+          z0_(center ? -0.5f * h : 0.f),
+          h_(h),
+          twist_(static_cast<float>(twistDeg * M_PI / 180.0)),
+          scale_(scale) {
+        const Box3 cb = child_->bounds();
+        const float r = glm::length(glm::max(glm::abs(glm::vec2(cb.min)), glm::abs(glm::vec2(cb.max))));
+        radius_ = std::isfinite(r) ? r * std::max({1.f, scale.x, scale.y}) : kInf;
+        plain_ = twist_ == 0.f && scale_ == glm::vec2(1.f);
+        // The map (x, y, z) -> 2D point moves by at most radius * |twist| / h + |scale - 1| * radius / h
+        // per unit of z, so dividing the value by this Lipschitz factor keeps it a lower bound of the distance.
+        lipschitz_ = plain_ ? 1.f
+                            : 1.f + (std::abs(twist_) + std::max(std::abs(scale.x - 1.f), std::abs(scale.y - 1.f))) *
+                                        radius_ / h_;
+    }
     float value(const glm::vec3& p) const override {
-        const glm::vec2 w(child_->value(glm::vec3(p.x, p.y, 0.f)), std::abs(p.z - z0_ - 0.5f * h_) - 0.5f * h_);
+        float d2;
+        if (plain_) {
+            d2 = child_->value(glm::vec3(p.x, p.y, 0.f));
+        } else {
+            // OpenSCAD: at height t in [0, 1] the profile is scaled by lerp(1, scale, t) and turned by
+            // -twist * t (a positive twist turns clockwise seen from +z).
+            const float t = glm::clamp((p.z - z0_) / h_, 0.f, 1.f);
+            const float a = twist_ * t, c = std::cos(a), s = std::sin(a);
+            const glm::vec2 q(c * p.x - s * p.y, s * p.x + c * p.y);  // undo the rotation by -a
+            const glm::vec2 sc = glm::max(glm::mix(glm::vec2(1.f), scale_, t), glm::vec2(1e-6f));
+            d2 = child_->value(glm::vec3(q.x / sc.x, q.y / sc.y, 0.f)) * std::min(sc.x, sc.y) / lipschitz_;
+        }
+        const glm::vec2 w(d2, std::abs(p.z - z0_ - 0.5f * h_) - 0.5f * h_);
         return std::min(std::max(w.x, w.y), 0.f) + glm::length(glm::max(w, glm::vec2(0.f)));
     }
     Interval bound(const Box3& b) const override {
-        // The extrusion of a distance is 1-Lipschitz when the 2D field is.
+        // The extrusion of a distance is 1-Lipschitz when the 2D field is (and the twisted or
+        // scaled profile is divided by its Lipschitz factor).
         return implicit::lipschitz(value(b.centre()), 1.f, b.halfDiagonal());
     }
     Box3 bounds() const override {
         Box3 b = child_->bounds();
+        if (!plain_) {
+            b.min = glm::vec3(-radius_);
+            b.max = glm::vec3(radius_);
+        }
         b.min.z = z0_;
         b.max.z = z0_ + h_;
         return b;
     }
     std::string describe() const override { return "linear_extrude(" + child_->describe() + ")"; }
-    glm::vec4 colorAt(const glm::vec3& p) const override { return child_->colorAt(p); }
+    const implicit::Material* materialAt(const glm::vec3& p) const override { return child_->materialAt(p); }
 
 private:
     FieldPtr child_;
-    float z0_, h_;
+    float z0_, h_, twist_;
+    glm::vec2 scale_;
+    float radius_ = kInf, lipschitz_ = 1.f;
+    bool plain_ = true;
 };
 
 class RotateExtrude final : public implicit::Field {
 public:
-    explicit RotateExtrude(FieldPtr c) : child_(std::move(c)) {}
+    RotateExtrude(FieldPtr c, float angleDeg) : child_(std::move(c)) {
+        const float a = static_cast<float>(std::clamp(angleDeg, -360.f, 360.f) * M_PI / 180.0);
+        full_ = std::abs(angleDeg) >= 360.f;
+        // The wedge from the +x axis turning counter-clockwise by `a` (clockwise when negative).
+        lo_ = std::min(0.f, a);
+        hi_ = std::max(0.f, a);
+    }
     float value(const glm::vec3& p) const override {
-        return child_->value(glm::vec3(std::sqrt(p.x * p.x + p.y * p.y), p.z, 0.f));
+        const float r = std::sqrt(p.x * p.x + p.y * p.y);
+        const float inPlane = child_->value(glm::vec3(r, p.z, 0.f));
+        if (full_) return inPlane;
+        float phi = std::atan2(p.y, p.x);
+        if (phi < lo_) phi += 2.f * static_cast<float>(M_PI);
+        if (phi > hi_ && phi - 2.f * static_cast<float>(M_PI) >= lo_) phi -= 2.f * static_cast<float>(M_PI);
+        if (phi >= lo_ && phi <= hi_) {
+            // Inside the wedge: the revolved profile, capped by the two end planes.
+            const float toEnd = std::min(capDistance(p, lo_), capDistance(p, hi_));
+            return inPlane < 0 ? std::max(inPlane, -toEnd) : inPlane;
+        }
+        // Outside the wedge: the nearer of the two end faces (the profile placed in each end half-plane).
+        auto toCap = [&](float ang) {
+            const glm::vec2 dir(std::cos(ang), std::sin(ang));
+            const float u = p.x * dir.x + p.y * dir.y;   // along the end half-plane
+            const float v = -p.x * dir.y + p.y * dir.x;  // across it
+            const float in = std::max(child_->value(glm::vec3(u, p.z, 0.f)), 0.f);
+            return std::sqrt(v * v + in * in);
+        };
+        return std::min(toCap(lo_), toCap(hi_));
     }
     Interval bound(const Box3& b) const override {
         return implicit::lipschitz(value(b.centre()), 1.f, b.halfDiagonal());
@@ -197,34 +195,21 @@ public:
         return {glm::vec3(-r, -r, c.min.y), glm::vec3(r, r, c.max.y)};
     }
     std::string describe() const override { return "rotate_extrude(" + child_->describe() + ")"; }
-    glm::vec4 colorAt(const glm::vec3& p) const override { return child_->colorAt(p); }
+    const implicit::Material* materialAt(const glm::vec3& p) const override { return child_->materialAt(p); }
 
 private:
+    /// Distance from p to the end half-plane at angle `ang` (for points inside the wedge).
+    static float capDistance(const glm::vec3& p, float ang) {
+        const glm::vec2 dir(std::cos(ang), std::sin(ang));
+        const float u = p.x * dir.x + p.y * dir.y, v = -p.x * dir.y + p.y * dir.x;
+        return u >= 0 ? std::abs(v) : std::sqrt(u * u + v * v);
+    }
     FieldPtr child_;
+    bool full_ = true;
+    float lo_ = 0.f, hi_ = 0.f;
 };
 
 }  // namespace
-
-FieldPtr makePolyhedron(std::vector<glm::vec3> points, const std::vector<std::vector<int>>& faces) {
-    if (faces.size() < 4) throw std::invalid_argument("polyhedron: a closed polyhedron needs at least 4 faces");
-    std::vector<glm::uvec3> tris;
-    for (std::size_t f = 0; f < faces.size(); ++f) {
-        if (faces[f].size() < 3)
-            throw std::invalid_argument("polyhedron: face " + std::to_string(f) + " has fewer than 3 points");
-        for (int i : faces[f])
-            if (i < 0 || static_cast<std::size_t>(i) >= points.size())
-                throw std::invalid_argument("polyhedron: face " + std::to_string(f) + " names point " +
-                                            std::to_string(i) + ", but there are " + std::to_string(points.size()));
-        for (std::size_t k = 1; k + 1 < faces[f].size(); ++k) {
-            const glm::vec3 a = points[static_cast<std::size_t>(faces[f][0])],
-                            b = points[static_cast<std::size_t>(faces[f][k])],
-                            c = points[static_cast<std::size_t>(faces[f][k + 1])];
-            if (glm::length(glm::cross(b - a, c - a)) > 0.f)
-                tris.emplace_back(faces[f][0], faces[f][k], faces[f][k + 1]);
-        }
-    }
-    return std::make_shared<Polyhedron>(std::move(points), std::move(tris));
-}
 
 FieldPtr makeCircle2D(float r) {
     if (!(r > 0)) throw std::invalid_argument("circle: radius must be positive");
@@ -255,12 +240,16 @@ std::vector<glm::vec2> regularPolygon(float r, int n) {
     }
     return p;
 }
-FieldPtr makeLinearExtrude(FieldPtr c, float h, bool center) {
+FieldPtr makeLinearExtrude(FieldPtr c, float h, bool center, float twistDeg, glm::vec2 scale) {
     if (!(h > 0)) throw std::invalid_argument("linear_extrude: height must be positive");
-    return std::make_shared<LinearExtrude>(std::move(c), h, center);
+    if (!(scale.x >= 0 && scale.y >= 0)) throw std::invalid_argument("linear_extrude: scale must not be negative");
+    if (!std::isfinite(twistDeg)) throw std::invalid_argument("linear_extrude: twist must be finite");
+    return std::make_shared<LinearExtrude>(std::move(c), h, center, twistDeg, scale);
 }
-FieldPtr makeRotateExtrude(FieldPtr c) {
-    return std::make_shared<RotateExtrude>(std::move(c));
+FieldPtr makeRotateExtrude(FieldPtr c, float angleDeg) {
+    if (!(angleDeg != 0.f) || !std::isfinite(angleDeg))
+        throw std::invalid_argument("rotate_extrude: angle must be non-zero and finite");
+    return std::make_shared<RotateExtrude>(std::move(c), angleDeg);
 }
 
 FieldPtr makeFacetedSphere(float r, int n) {

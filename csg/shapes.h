@@ -5,7 +5,10 @@
 
 #include <vector>
 
+#include <string>
+
 #include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
 
 #include "implicit/field.h"
 
@@ -16,6 +19,16 @@ using implicit::FieldPtr;
 /// A closed polyhedron; faces are polygons of point indices, either orientation.
 /// @throw std::invalid_argument for bad indices or fewer than 4 faces.
 FieldPtr makePolyhedron(std::vector<glm::vec3> points, const std::vector<std::vector<int>>& faces);
+/// The exact signed distance to a triangle mesh: distance through a bounding volume hierarchy.
+/// Sign: by default from the generalized winding number, evaluated hierarchically (Barill et al.
+/// 2018): right for closed meshes, self-intersecting ones and meshes with small holes. With
+/// `trusted` (generated geometry known not to self-intersect) and a closed, edge-manifold mesh,
+/// from angle-weighted pseudonormals instead (faster). The orientation is made consistent and
+/// outward first where the mesh is closed. Points at the same position are merged.
+/// `closed` (if given) says whether the mesh was closed and edge-manifold.
+/// @throw std::invalid_argument for indices out of range, non-finite points, < 4 usable triangles.
+FieldPtr makeTriangleMeshField(std::vector<glm::vec3> points, std::vector<glm::uvec3> triangles,
+                               std::string what = "mesh", bool* closed = nullptr, bool trusted = false);
 
 /// 2D shapes (the sign of x, y; constant along z).
 FieldPtr makeCircle2D(float r);
@@ -25,10 +38,14 @@ FieldPtr makePolygon2D(std::vector<glm::vec2> points, std::vector<std::vector<in
 /// A regular n-gon of circumradius r with a vertex on +x (OpenSCAD's circle($fn = n)).
 std::vector<glm::vec2> regularPolygon(float r, int n);
 
-/// 2D child extruded from z = 0 to height (or centred).
-FieldPtr makeLinearExtrude(FieldPtr child2d, float height, bool center);
+/// 2D child extruded from z = 0 to height (or centred), as OpenSCAD does: turned by -twist * t
+/// degrees and scaled by lerp(1, scale, t) at height fraction t (the value is then a conservative
+/// distance: divided by the map's Lipschitz factor).
+FieldPtr makeLinearExtrude(FieldPtr child2d, float height, bool center, float twistDeg = 0.f,
+                           glm::vec2 scale = glm::vec2(1.f));
 /// 2D child (x >= 0 half-plane) revolved about the z axis; (x, y) of the child become (radius, z).
-FieldPtr makeRotateExtrude(FieldPtr child2d);
+/// |angle| < 360: only the wedge from the +x axis turning by `angle` degrees (counter-clockwise when positive).
+FieldPtr makeRotateExtrude(FieldPtr child2d, float angleDeg = 360.f);
 
 /// OpenSCAD's faceted sphere and cylinder for $fn = n > 0 (the same vertices OpenSCAD makes).
 FieldPtr makeFacetedSphere(float r, int n);

@@ -28,6 +28,15 @@ struct Box3 {
     Box3 expanded(float r) const { return {min - glm::vec3(r), max + glm::vec3(r)}; }
 };
 
+/// How a surface looks: colour (alpha = opacity) and Phong terms. Attached to CSG subtrees by
+/// `color()` and `material()`; carried to meshes as vertex colours and to the renderers.
+struct Material {
+    glm::vec4 color{0.8f, 0.8f, 0.8f, 1.f};
+    float diffuse = 0.9f;    ///< Lambert weight
+    float specular = 0.25f;  ///< Blinn-Phong highlight weight
+    float shininess = 40.f;  ///< Blinn-Phong exponent
+};
+
 class Field;
 using FieldPtr = std::shared_ptr<const Field>;
 
@@ -56,9 +65,14 @@ public:
     virtual FieldPtr simplify(const Box3& box) const { return nullptr; }
     /// A short description, e.g. "torus(R=1, r=0.3)".
     virtual std::string describe() const = 0;
-    /// The colour (RGBA) of the part of the surface nearest p, as CSG colour nodes assign it;
-    /// alpha 0 means "no colour given".
-    virtual glm::vec4 colorAt(const glm::vec3& p) const { return glm::vec4(0.f); }
+    /// The material of the part of the surface nearest p, as CSG colour and material nodes
+    /// assign it; nullptr where none is given. Owned by the field.
+    virtual const Material* materialAt(const glm::vec3& p) const { return nullptr; }
+    /// The colour (RGBA) of materialAt(p); alpha 0 where no material is given.
+    glm::vec4 colorAt(const glm::vec3& p) const {
+        const Material* m = materialAt(p);
+        return m ? m->color : glm::vec4(0.f);
+    }
 };
 
 /// `f.simplify(box)` if it gives something, else `f` itself.

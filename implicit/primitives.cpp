@@ -296,28 +296,34 @@ public:
         const Interval c = child_->bound(localBox(box));
         return {c.lo * scale_, c.hi * scale_};
     }
-    Box3 bounds() const override {
-        const Box3 b = child_->bounds();
-        if (!b.isBounded()) return Box3::everything();
-        return transformBox(b, glm::dmat4(m_));
-    }
+    Box3 bounds() const override { return transformBox(child_->bounds(), glm::dmat4(m_)); }
     bool isDistance() const override { return child_->isDistance(); }
     FieldPtr simplify(const Box3& box) const override {
         FieldPtr c = child_->simplify(localBox(box));
         return c ? std::make_shared<Transformed>(c, m_) : nullptr;
     }
     std::string describe() const override { return "transform(" + child_->describe() + ")"; }
-    glm::vec4 colorAt(const glm::vec3& p) const override { return child_->colorAt(local(p)); }
+    const implicit::Material* materialAt(const glm::vec3& p) const override { return child_->materialAt(local(p)); }
 
 private:
     glm::vec3 local(const glm::vec3& p) const { return glm::vec3(inv_ * glm::dvec4(p, 1.0)); }
-    Box3 localBox(const Box3& box) const { return box.isBounded() ? transformBox(box, inv_) : Box3::everything(); }
+    Box3 localBox(const Box3& box) const { return transformBox(box, inv_); }
+    /// The box of the transformed box, by interval arithmetic per row (0 * infinity counts as 0,
+    /// so that a 2D shape, infinite along z, keeps finite x and y bounds through a 2D transform).
     static Box3 transformBox(const Box3& b, const glm::dmat4& t) {
+        if (b.isEmpty()) return b;
         Box3 out;
-        for (int c = 0; c < 8; ++c) {
-            const glm::dvec3 p((c & 1) ? b.max.x : b.min.x, (c & 2) ? b.max.y : b.min.y, (c & 4) ? b.max.z : b.min.z);
-            const glm::vec3 q(t * glm::dvec4(p, 1.0));
-            out = out.unite(Box3{q, q});
+        for (int i = 0; i < 3; ++i) {
+            double lo = t[3][i], hi = t[3][i];
+            for (int j = 0; j < 3; ++j) {
+                const double a = t[j][i];
+                if (a == 0.0) continue;
+                const double u = a * double(b.min[j]), v = a * double(b.max[j]);
+                lo += std::min(u, v);
+                hi += std::max(u, v);
+            }
+            out.min[i] = static_cast<float>(lo);
+            out.max[i] = static_cast<float>(hi);
         }
         return out;
     }
@@ -354,7 +360,7 @@ public:
         return s.str();
     }
 
-    glm::vec4 colorAt(const glm::vec3& p) const override { return child_->colorAt(p); }
+    const implicit::Material* materialAt(const glm::vec3& p) const override { return child_->materialAt(p); }
 
 private:
     float apply(float v) const { return (shell_ ? std::abs(v) : v) - r_; }
@@ -384,7 +390,7 @@ public:
         return s ? std::make_shared<Clipped>(s, box_) : nullptr;
     }
     std::string describe() const override { return child_->describe(); }
-    glm::vec4 colorAt(const glm::vec3& p) const override { return child_->colorAt(p); }
+    const implicit::Material* materialAt(const glm::vec3& p) const override { return child_->materialAt(p); }
 
 private:
     float boxValue(const glm::vec3& p) const { return boxDistance(p - box_.centre(), 0.5f * box_.size()); }

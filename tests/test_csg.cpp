@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 
 #include <gtest/gtest.h>
@@ -5,6 +6,7 @@
 #include "core/error.h"
 #include "csg/nodes.h"
 #include "csg/scene.h"
+#include "csg/shapes.h"
 #include "implicit/primitives.h"
 #include "test_util.h"
 #include "volume/marching_cubes.h"
@@ -143,8 +145,9 @@ TEST(Scene, RealOpenScadExportsMatchOpenScadsOwnMeshes) {
         float voxel;
     };
     // See tests/data/openscad/REFERENCES.txt: OpenSCAD's STL at $fn = 96.
-    for (const Ref& ref : {Ref{"CSG", 3, 5, 7824.318, 0.2f}, Ref{"steinmetz", 1, 0, 4681.275, 0.15f},
-                           Ref{"hexnut", 1, 1, 1450.59, 0.1f}}) {
+    for (const Ref& ref :
+         {Ref{"CSG", 3, 5, 7824.318, 0.2f}, Ref{"steinmetz", 1, 0, 4681.275, 0.15f}, Ref{"hexnut", 1, 1, 1450.59, 0.1f},
+          Ref{"extrude", 3, 0, 2821.659, 0.1f}, Ref{"logo", 1, 5, 18686.22, 0.3f}}) {
         const csg::Scene s = csg::readScene((dir / (std::string(ref.name) + ".csg")).string());
         const auto r = meshScene(s.root, ref.voxel);
         EXPECT_EQ(r.components, ref.components) << ref.name;
@@ -158,4 +161,82 @@ TEST(Scene, RealOpenScadExportsMatchOpenScadsOwnMeshes) {
         EXPECT_NE(std::string(e.what()).find("'text' is not supported"), std::string::npos) << e.what();
         EXPECT_NE(std::string(e.what()).find("rotate_extrude.csg:"), std::string::npos) << e.what();
     }
+}
+
+TEST(Scene, ExtrusionsTwistScaleAndPartialRevolution) {
+    // A twist keeps every cross-section's area: the volume is area * height; scale 0 makes a pyramid.
+    auto vol = [](const std::string& text, float voxel) {
+        return meshScene(csg::parseScene(text, "e.isf").root, voxel).volume;
+    };
+    EXPECT_NEAR(vol("linear_extrude(height = 2, twist = 180) square(1, center = true);", 0.01f), 2.0, 0.01);
+    EXPECT_NEAR(vol("linear_extrude(height = 3, scale = 0) square(2, center = true);", 0.01f), 4.0, 0.02);
+    // A quarter of a torus (tube radius 0.25 at radius 1): pi^2 R r^2 / 2.
+    const double torus = 2 * M_PI * M_PI * 1.0 * 0.0625;
+    EXPECT_NEAR(vol("rotate_extrude(angle = 90) translate([1, 0]) circle(r = 0.25);", 0.01f), torus / 4, 0.01 * torus);
+    EXPECT_NEAR(vol("rotate_extrude(angle = -270) translate([1, 0]) circle(r = 0.25);", 0.01f), 0.75 * torus,
+                0.01 * torus);
+    // The quarter lies in the first quadrant (counter-clockwise from +x).
+    const auto q = csg::parseScene("rotate_extrude(angle = 90) translate([1, 0]) circle(r = 0.25);", "q.isf");
+    EXPECT_LT(q.root->value(glm::vec3(0.7071f, 0.7071f, 0)), 0.f);
+    EXPECT_GT(q.root->value(glm::vec3(-0.7071f, 0.7071f, 0)), 0.f);
+    EXPECT_NE(errorOf("rotate_extrude(angle = 0) circle(1);").find("angle must be non-zero"), std::string::npos);
+}
+
+TEST(Scene, MeshAndVolumeStatementsReadRealFiles) {
+    // The cow (closed, 5,804 triangles, one pinched vertex) as a solid: its volume is the mesh's own.
+    const auto cowFile = test::sharedData() / "meshes/cow/cow.obj";
+    const auto cow = csg::parseScene("mesh(\"" + cowFile.string() + "\");", "c.isf");
+    EXPECT_TRUE(cow.warnings.empty());
+    const auto r = meshScene(cow.root, 0.03f);
+    EXPECT_NEAR(r.volume, 53.48682, 0.01 * 53.48682);
+    // A level-set .vdb cut in half by a box: half a sphere of radius 3.
+    const auto sphere = test::sourceDir() / "data/sphere.vdb";
+    const auto half = csg::parseScene("intersection() { volume(\"" + sphere.string() +
+                                          "\", iso = 0); translate([0, 0, -5]) cube(10, center = true); }",
+                                      "h.isf");
+    EXPECT_NEAR(meshScene(half.root, 0.03f).volume, 2.0 / 3.0 * M_PI * 27.0, 0.01 * 56.55);
+    // The open bunny is accepted with a warning on its line.
+    const auto bunny =
+        csg::parseScene("\nmesh(\"" + (test::sharedData() / "meshes/bunny/bunny.ply").string() + "\");", "b.isf");
+    ASSERT_EQ(bunny.warnings.size(), 1u);
+    EXPECT_EQ(bunny.warnings[0].loc.line, 2);
+    EXPECT_NE(bunny.warnings[0].message.find("not closed"), std::string::npos);
+    EXPECT_NE(errorOf("mesh(\"no/such.ply\");").find("no/such.ply"), std::string::npos);
+    EXPECT_NE(errorOf("volume(\"no/such.vdb\");").find("no/such.vdb"), std::string::npos);
+}
+
+TEST(Csg, PolyhedronSignIgnoresFaceOrientationAndSelfIntersection) {
+    // A cube with its faces listed in mixed orientations.
+    std::vector<glm::vec3> p{{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}};
+    std::vector<std::vector<int>> faces{{0, 3, 2, 1}, {4, 5, 6, 7}, {0, 1, 5, 4},
+                                        {2, 3, 7, 6}, {1, 2, 6, 5}, {0, 4, 7, 3}};
+    auto good = csg::makePolyhedron(p, faces);
+    std::reverse(faces[1].begin(), faces[1].end());
+    std::reverse(faces[4].begin(), faces[4].end());
+    auto mixed = csg::makePolyhedron(p, faces);
+    for (int i = 0; i <= 20; ++i)
+        for (int j = 0; j <= 8; ++j) {
+            const float x = -0.55f + 0.1f * float(i), y = -0.45f + 0.25f * float(j);
+            const glm::vec3 q(x, y, 0.3f);
+            EXPECT_NEAR(good->value(q), mixed->value(q), 1e-6f) << x << " " << y;
+            EXPECT_EQ(good->value(q) < 0, x > 0 && x < 1 && y > 0 && y < 1) << x << " " << y;
+        }
+    // Two overlapping cubes as one triangle soup (self-intersecting): the union's inside.
+    std::vector<glm::vec3> pts;
+    std::vector<glm::uvec3> tris;
+    for (float off : {0.f, 0.5f}) {
+        const auto base = static_cast<unsigned>(pts.size());
+        for (const auto& q : p) pts.push_back(q + glm::vec3(off, 0, 0));
+        for (const auto& f : std::vector<std::vector<int>>{
+                 {0, 3, 2, 1}, {4, 5, 6, 7}, {0, 1, 5, 4}, {2, 3, 7, 6}, {1, 2, 6, 5}, {0, 4, 7, 3}}) {
+            tris.emplace_back(base + f[0], base + f[1], base + f[2]);
+            tris.emplace_back(base + f[0], base + f[2], base + f[3]);
+        }
+    }
+    auto soup = csg::makeTriangleMeshField(pts, tris);
+    EXPECT_LT(soup->value(glm::vec3(0.75f, 0.5f, 0.5f)), 0.f);  // inside both
+    EXPECT_LT(soup->value(glm::vec3(0.25f, 0.5f, 0.5f)), 0.f);
+    EXPECT_LT(soup->value(glm::vec3(1.25f, 0.5f, 0.5f)), 0.f);
+    EXPECT_GT(soup->value(glm::vec3(1.75f, 0.5f, 0.5f)), 0.f);
+    EXPECT_NEAR(soup->value(glm::vec3(0.75f, 0.5f, 0.9f)), -0.1f, 1e-5f);  // distance to the nearest face
 }

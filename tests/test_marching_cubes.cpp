@@ -183,6 +183,25 @@ TEST(MarchingCubes, SingleVoxelAndLeafBoundaries) {
     EXPECT_EQ(r.components, 1u);
 }
 
+TEST(MarchingCubes, InconsistentTilesNeverGiveBadIndices) {
+    // Inactive 8^3 tiles of opposite signs side by side, next to a leaf (what an inconsistent
+    // sampler can make; the cow mesh once did): every index must name a vertex.
+    auto grid = FloatGrid::create(1.f);
+    grid->setGridClass(openvdb::GRID_LEVEL_SET);
+    grid->tree().addTile(1, Coord(0, 0, 0), -1.f, false);
+    grid->tree().addTile(1, Coord(0, 0, 8), 1.f, false);
+    grid->tree().addTile(1, Coord(0, 8, 0), -1.f, false);
+    grid->tree().setValue(Coord(9, 3, 3), -1.f);  // a leaf at +x whose lower neighbours are the tiles
+    grid->tree().setValue(Coord(3, 3, -5), 0.5f);
+    const auto m = meshOf(*grid);
+    ASSERT_GT(m.triangles.size(), 0u);
+    for (const auto& t : m.triangles)
+        for (int k = 0; k < 3; ++k) ASSERT_LT(t[k], m.positions.size());
+    const auto r = mesh::check(m);
+    EXPECT_EQ(r.nonManifoldEdges, 0u);
+    EXPECT_EQ(r.outOfRangeIndices, 0u);
+}
+
 TEST(MarchingCubes, RandomNoiseAtManyIsoValuesIncludingExactHits) {
     std::mt19937 rng(12345);
     std::uniform_int_distribution<int> level(-4, 4);

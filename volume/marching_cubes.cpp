@@ -19,6 +19,7 @@
 #endif
 
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 #include <glm/geometric.hpp>
@@ -248,6 +249,21 @@ bool Sources::isUniform(float iso) const {
     return true;
 }
 
+/// True when some edge that the upper neighbour `o` (bit 0: +x, 1: +y, 2: +z) owns, within this
+/// block's 9^3 corners, is cut: the cells of this block then use a vertex that block makes.
+inline bool ownsCutEdges(const Masks& m, int o) {
+    const bool ox = o & 1, oy = o & 2, oz = o & 4;
+    const std::uint32_t zmask = oz ? 0x100u : 0xFFu;
+    for (int x = ox ? 8 : 0; x <= (ox ? 8 : 7); ++x)
+        for (int y = oy ? 8 : 0; y <= (oy ? 8 : 7); ++y) {
+            const std::uint32_t c = m.mask[x][y];
+            if (!ox && ((c ^ m.mask[x + 1][y]) & zmask)) return true;
+            if (!oy && ((c ^ m.mask[x][y + 1]) & zmask)) return true;
+            if (!oz && ((c ^ (c >> 1)) & 0xFFu)) return true;
+        }
+    return false;
+}
+
 /// Index to world for affine transforms: a 3x3 matrix and a translation, in double precision.
 struct AffineToWorld {
     double m[3][3], t[3];
@@ -444,28 +460,34 @@ void extract(const openvdb::FloatGrid& grid, const MeshingOptions& options, mesh
     auto t0 = Clock::now();
 
     KeyPacker packer;
-    const std::vector<std::uint64_t> keys = collectBlocks<Below>(tree, iso, packer, stats.leaves);
-    const std::size_t n = keys.size();
-    stats.blocks = n;
-    const BlockIndex index(keys);
+    std::vector<std::uint64_t> keys = collectBlocks<Below>(tree, iso, packer, stats.leaves);
+    std::size_t n = keys.size();
+    auto index = std::make_unique<BlockIndex>(keys);
     stats.secondsSetup = secondsSince(t0);
 
     // Pass 1: inside masks, owned-vertex prefixes and triangle counts per block.
     t0 = Clock::now();
-    ScratchArray<BlockData> blocks(n);
+    auto blocks = std::make_unique<ScratchArray<BlockData>>(n);
     std::vector<std::uint64_t> vertexOffset(n + 1, 0), triangleOffset(n + 1, 0);
     {
         ProgressTicker ticker(options.progress, "meshing", 2 * n);
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 64), [&](const tbb::blocked_range<std::size_t>& r) {
+        // In a consistent grid every cut edge lies in a leaf's reach, so the blocks collected above
+        // own all the vertices their cells use. A grid may still put two tiles of opposite sides
+        // next to each other (a hand-made or inconsistently sampled grid): then a block's cells use
+        // edges of a neighbour region that no block owns. Such neighbours are added and pass 1 is
+        // run again, so that every grid gives a valid mesh (a rare second round, never a bad index).
+        tbb::enumerable_thread_specific<std::vector<std::uint64_t>> missing;
+        auto pass1 = [&](const tbb::blocked_range<std::size_t>& r) {
             Accessor acc(tree);
             Sources src;
             Masks masks;
+            auto& mine = missing.local();
             for (std::size_t bi = r.begin(); bi != r.end(); ++bi) {
                 src.load(acc, packer.unpack(keys[bi]));
                 vertexOffset[bi + 1] = triangleOffset[bi + 1] = 0;
                 if (src.isUniform<Below>(iso)) continue;  // eight constants on one side: no surface
                 computeMasks<Below>(src, iso, masks);
-                const std::uint32_t vertices = blocks[bi].build(masks);
+                const std::uint32_t vertices = (*blocks)[bi].build(masks);
                 std::uint32_t triangles = 0;
                 for (int x = 0; x < 8; ++x)
                     for (int y = 0; y < 8; ++y) {
@@ -475,9 +497,41 @@ void extract(const openvdb::FloatGrid& grid, const MeshingOptions& options, mesh
                     }
                 vertexOffset[bi + 1] = vertices;
                 triangleOffset[bi + 1] = triangles;
+                if (triangles == 0) continue;
+                const Coord origin = packer.unpack(keys[bi]);
+                for (int o = 1; o < 8; ++o)
+                    if (ownsCutEdges(masks, o)) {
+                        const std::uint64_t key =
+                            packer.pack(origin.offsetBy(8 * (o & 1), 8 * ((o >> 1) & 1), 8 * ((o >> 2) & 1)));
+                        if (index->find(key) < 0) mine.push_back(key);
+                    }
             }
             ticker.add(r.size());
-        });
+        };
+        for (;;) {
+            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 64), pass1);
+            std::vector<std::uint64_t> add;
+            for (auto& m : missing) {
+                add.insert(add.end(), m.begin(), m.end());
+                m.clear();
+            }
+            if (add.empty()) break;
+            for (std::uint64_t key : add) {
+                const Coord c = packer.unpack(key);
+                for (int k = 0; k < 3; ++k)
+                    if (((c[k] - packer.base[k]) >> 3) >= (1 << kKeyBits) - 1)
+                        throw ResourceError("grid too large for the mesher's block addressing");
+            }
+            keys.insert(keys.end(), add.begin(), add.end());
+            std::sort(keys.begin(), keys.end());
+            keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+            n = keys.size();
+            index = std::make_unique<BlockIndex>(keys);
+            blocks = std::make_unique<ScratchArray<BlockData>>(n);
+            vertexOffset.assign(n + 1, 0);
+            triangleOffset.assign(n + 1, 0);
+        }
+        stats.blocks = n;
         std::partial_sum(vertexOffset.begin(), vertexOffset.end(), vertexOffset.begin());
         std::partial_sum(triangleOffset.begin(), triangleOffset.end(), triangleOffset.begin());
         stats.secondsCount = secondsSince(t0);
@@ -510,7 +564,7 @@ void extract(const openvdb::FloatGrid& grid, const MeshingOptions& options, mesh
                 const std::uint64_t vbase = vertexOffset[bi];
                 if (vertexOffset[bi + 1] == vbase && triangleOffset[bi + 1] == triangleOffset[bi]) continue;
                 ++localSurface;
-                const BlockData& b = blocks[bi];
+                const BlockData& b = (*blocks)[bi];
                 const Coord origin = packer.unpack(keys[bi]);
                 src.load(acc, origin);
                 computeMasks<Below>(src, iso, masks);
@@ -540,9 +594,9 @@ void extract(const openvdb::FloatGrid& grid, const MeshingOptions& options, mesh
                 // Vertices on our upper faces that neighbour blocks own (their edges start at 8).
                 for (int o = 1; o < 7; ++o) {
                     const std::int64_t ob =
-                        index.find(packer.pack(origin.offsetBy(8 * (o & 1), 8 * ((o >> 1) & 1), 8 * ((o >> 2) & 1))));
+                        index->find(packer.pack(origin.offsetBy(8 * (o & 1), 8 * ((o >> 1) & 1), 8 * ((o >> 2) & 1))));
                     if (ob < 0) continue;
-                    const BlockData& B = blocks[static_cast<std::size_t>(ob)];
+                    const BlockData& B = (*blocks)[static_cast<std::size_t>(ob)];
                     const std::uint32_t obase = static_cast<std::uint32_t>(vertexOffset[static_cast<std::size_t>(ob)]);
                     if (vertexOffset[static_cast<std::size_t>(ob) + 1] == obase) continue;
                     const int ox = o & 1, oy = (o >> 1) & 1, oz = (o >> 2) & 1;
