@@ -60,8 +60,22 @@ struct Diagnostics {
         if (errors.size() >= 20) return;
         std::string msg = file + ":" + std::to_string(line) + ":" + std::to_string(col) + ": " + what;
         if (line >= 1 && static_cast<std::size_t>(line) <= lines.size()) {
-            msg += "\n  " + std::string(lines[static_cast<std::size_t>(line) - 1]) + "\n  " +
-                   std::string(static_cast<std::size_t>(std::max(col - 1, 0)), ' ') + "^";
+            // The line with a caret under the column; a long line is cut to 100 characters around it.
+            std::string_view text = lines[static_cast<std::size_t>(line) - 1];
+            std::size_t at = static_cast<std::size_t>(std::max(col - 1, 0));
+            std::string head, tail;
+            constexpr std::size_t kWindow = 100;
+            if (text.size() > kWindow) {
+                const std::size_t from = at > kWindow / 2 ? std::min(at - kWindow / 2, text.size() - kWindow) : 0;
+                if (from > 0) head = "...";
+                if (from + kWindow < text.size()) tail = "...";
+                text = text.substr(from, kWindow);
+                at = at - from + head.size();
+            }
+            std::string shown = head + std::string(text) + tail;
+            for (char& c : shown)
+                if (static_cast<unsigned char>(c) < 32 && c != '\t') c = '?';  // no control bytes on the terminal
+            msg += "\n  " + shown + "\n  " + std::string(at, ' ') + "^";
         }
         errors.push_back(msg);
     }
@@ -175,6 +189,7 @@ struct Expr {
     std::string text;  // string value, variable, operator or function name
     std::vector<ExprPtr> args;
     int line = 0, col = 0;
+    int depth = 1;  ///< height of the expression tree (bounded: evaluation recurses over it)
 };
 struct Arg {
     std::string name;  // empty: positional
@@ -204,6 +219,25 @@ public:
 
 private:
     struct Failure {};
+    static constexpr int kMaxNesting = 256;
+    /// Bounds the parser's recursion (and so the evaluator's): hostile inputs such as 100,000
+    /// opening brackets get an error, not a stack overflow.
+    class Nest {
+    public:
+        Nest(Parser& p) : p_(p) {
+            if (++p_.nest_ > kMaxNesting) {
+                --p_.nest_;
+                p_.d_.error(p_.peek().line, p_.peek().col, "nesting deeper than 256 levels");
+                throw Failure{};
+            }
+        }
+        ~Nest() { --p_.nest_; }
+        Nest(const Nest&) = delete;
+        Nest& operator=(const Nest&) = delete;
+
+    private:
+        Parser& p_;
+    };
     const Token& peek(int k = 0) const { return t_[std::min(i_ + static_cast<std::size_t>(k), t_.size() - 1)]; }
     bool is(const char* p, int k = 0) const { return peek(k).kind == Tok::Punct && peek(k).text == p; }
     Token next() { return t_[std::min(i_++, t_.size() - 1)]; }
@@ -235,6 +269,7 @@ private:
     std::optional<Statement> statement() {
         const std::size_t start = i_;
         try {
+            Nest nest(*this);
             if (is(";")) {
                 next();
                 return std::nullopt;
@@ -330,6 +365,7 @@ private:
         return e;
     }
     ExprPtr expression() {
+        Nest nest(*this);
         ExprPtr c = binary(0);
         if (is("?")) {
             const Token q = next();
@@ -362,11 +398,17 @@ private:
             ExprPtr rhs = binary(t.text == "^" ? p - 1 : p);
             auto e = std::const_pointer_cast<Expr>(make(Expr::Binary, t));
             e->text = t.text;
+            e->depth = std::max(lhs->depth, rhs->depth) + 1;
+            if (e->depth > kMaxNesting) {
+                d_.error(t.line, t.col, "expression deeper than 256 levels");
+                throw Failure{};
+            }
             e->args = {lhs, rhs};
             lhs = e;
         }
     }
     ExprPtr unary() {
+        Nest nest(*this);
         if (is("-") || is("!") || is("+")) {
             const Token t = next();
             auto e = std::const_pointer_cast<Expr>(make(Expr::Unary, t));
@@ -447,6 +489,7 @@ private:
 
     std::vector<Token> t_;
     std::size_t i_ = 0;
+    int nest_ = 0;
     Diagnostics& d_;
 };
 
@@ -730,40 +773,154 @@ std::vector<std::vector<double>> matrixOf(const Value& v) {
 
 glm::vec4 colorByName(std::string name, bool& ok) {
     for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    static const std::map<std::string, glm::vec3> names = {{"red", {1, 0, 0}},
-                                                           {"green", {0, 0.5f, 0}},
-                                                           {"lime", {0, 1, 0}},
-                                                           {"blue", {0, 0, 1}},
-                                                           {"yellow", {1, 1, 0}},
-                                                           {"cyan", {0, 1, 1}},
-                                                           {"magenta", {1, 0, 1}},
-                                                           {"white", {1, 1, 1}},
-                                                           {"black", {0, 0, 0}},
-                                                           {"gray", {0.5f, 0.5f, 0.5f}},
-                                                           {"grey", {0.5f, 0.5f, 0.5f}},
-                                                           {"silver", {0.75f, 0.75f, 0.75f}},
-                                                           {"orange", {1, 0.647f, 0}},
-                                                           {"purple", {0.5f, 0, 0.5f}},
-                                                           {"brown", {0.647f, 0.165f, 0.165f}},
-                                                           {"pink", {1, 0.753f, 0.796f}},
-                                                           {"gold", {1, 0.843f, 0}},
-                                                           {"ivory", {1, 1, 0.94f}},
-                                                           {"navy", {0, 0, 0.5f}},
-                                                           {"teal", {0, 0.5f, 0.5f}},
-                                                           {"olive", {0.5f, 0.5f, 0}},
-                                                           {"maroon", {0.5f, 0, 0}},
-                                                           {"coral", {1, 0.5f, 0.31f}},
-                                                           {"salmon", {0.98f, 0.5f, 0.45f}},
-                                                           {"tan", {0.82f, 0.71f, 0.55f}},
-                                                           {"steelblue", {0.27f, 0.51f, 0.71f}},
-                                                           {"skyblue", {0.53f, 0.81f, 0.92f}},
-                                                           {"crimson", {0.86f, 0.08f, 0.24f}},
-                                                           {"indigo", {0.29f, 0, 0.51f}},
-                                                           {"violet", {0.93f, 0.51f, 0.93f}},
-                                                           {"turquoise", {0.25f, 0.88f, 0.82f}},
-                                                           {"khaki", {0.94f, 0.9f, 0.55f}},
-                                                           {"beige", {0.96f, 0.96f, 0.86f}},
-                                                           {"chocolate", {0.82f, 0.41f, 0.12f}}};
+    // The SVG/CSS colour names OpenSCAD accepts (CSS Color Module Level 4).
+    static const std::map<std::string, std::uint32_t> names = {{"aliceblue", 0xf0f8ff},
+                                                               {"antiquewhite", 0xfaebd7},
+                                                               {"aqua", 0x00ffff},
+                                                               {"aquamarine", 0x7fffd4},
+                                                               {"azure", 0xf0ffff},
+                                                               {"beige", 0xf5f5dc},
+                                                               {"bisque", 0xffe4c4},
+                                                               {"black", 0x000000},
+                                                               {"blanchedalmond", 0xffebcd},
+                                                               {"blue", 0x0000ff},
+                                                               {"blueviolet", 0x8a2be2},
+                                                               {"brown", 0xa52a2a},
+                                                               {"burlywood", 0xdeb887},
+                                                               {"cadetblue", 0x5f9ea0},
+                                                               {"chartreuse", 0x7fff00},
+                                                               {"chocolate", 0xd2691e},
+                                                               {"coral", 0xff7f50},
+                                                               {"cornflowerblue", 0x6495ed},
+                                                               {"cornsilk", 0xfff8dc},
+                                                               {"crimson", 0xdc143c},
+                                                               {"cyan", 0x00ffff},
+                                                               {"darkblue", 0x00008b},
+                                                               {"darkcyan", 0x008b8b},
+                                                               {"darkgoldenrod", 0xb8860b},
+                                                               {"darkgray", 0xa9a9a9},
+                                                               {"darkgreen", 0x006400},
+                                                               {"darkgrey", 0xa9a9a9},
+                                                               {"darkkhaki", 0xbdb76b},
+                                                               {"darkmagenta", 0x8b008b},
+                                                               {"darkolivegreen", 0x556b2f},
+                                                               {"darkorange", 0xff8c00},
+                                                               {"darkorchid", 0x9932cc},
+                                                               {"darkred", 0x8b0000},
+                                                               {"darksalmon", 0xe9967a},
+                                                               {"darkseagreen", 0x8fbc8f},
+                                                               {"darkslateblue", 0x483d8b},
+                                                               {"darkslategray", 0x2f4f4f},
+                                                               {"darkslategrey", 0x2f4f4f},
+                                                               {"darkturquoise", 0x00ced1},
+                                                               {"darkviolet", 0x9400d3},
+                                                               {"deeppink", 0xff1493},
+                                                               {"deepskyblue", 0x00bfff},
+                                                               {"dimgray", 0x696969},
+                                                               {"dimgrey", 0x696969},
+                                                               {"dodgerblue", 0x1e90ff},
+                                                               {"firebrick", 0xb22222},
+                                                               {"floralwhite", 0xfffaf0},
+                                                               {"forestgreen", 0x228b22},
+                                                               {"fuchsia", 0xff00ff},
+                                                               {"gainsboro", 0xdcdcdc},
+                                                               {"ghostwhite", 0xf8f8ff},
+                                                               {"gold", 0xffd700},
+                                                               {"goldenrod", 0xdaa520},
+                                                               {"gray", 0x808080},
+                                                               {"green", 0x008000},
+                                                               {"greenyellow", 0xadff2f},
+                                                               {"grey", 0x808080},
+                                                               {"honeydew", 0xf0fff0},
+                                                               {"hotpink", 0xff69b4},
+                                                               {"indianred", 0xcd5c5c},
+                                                               {"indigo", 0x4b0082},
+                                                               {"ivory", 0xfffff0},
+                                                               {"khaki", 0xf0e68c},
+                                                               {"lavender", 0xe6e6fa},
+                                                               {"lavenderblush", 0xfff0f5},
+                                                               {"lawngreen", 0x7cfc00},
+                                                               {"lemonchiffon", 0xfffacd},
+                                                               {"lightblue", 0xadd8e6},
+                                                               {"lightcoral", 0xf08080},
+                                                               {"lightcyan", 0xe0ffff},
+                                                               {"lightgoldenrodyellow", 0xfafad2},
+                                                               {"lightgray", 0xd3d3d3},
+                                                               {"lightgreen", 0x90ee90},
+                                                               {"lightgrey", 0xd3d3d3},
+                                                               {"lightpink", 0xffb6c1},
+                                                               {"lightsalmon", 0xffa07a},
+                                                               {"lightseagreen", 0x20b2aa},
+                                                               {"lightskyblue", 0x87cefa},
+                                                               {"lightslategray", 0x778899},
+                                                               {"lightslategrey", 0x778899},
+                                                               {"lightsteelblue", 0xb0c4de},
+                                                               {"lightyellow", 0xffffe0},
+                                                               {"lime", 0x00ff00},
+                                                               {"limegreen", 0x32cd32},
+                                                               {"linen", 0xfaf0e6},
+                                                               {"magenta", 0xff00ff},
+                                                               {"maroon", 0x800000},
+                                                               {"mediumaquamarine", 0x66cdaa},
+                                                               {"mediumblue", 0x0000cd},
+                                                               {"mediumorchid", 0xba55d3},
+                                                               {"mediumpurple", 0x9370db},
+                                                               {"mediumseagreen", 0x3cb371},
+                                                               {"mediumslateblue", 0x7b68ee},
+                                                               {"mediumspringgreen", 0x00fa9a},
+                                                               {"mediumturquoise", 0x48d1cc},
+                                                               {"mediumvioletred", 0xc71585},
+                                                               {"midnightblue", 0x191970},
+                                                               {"mintcream", 0xf5fffa},
+                                                               {"mistyrose", 0xffe4e1},
+                                                               {"moccasin", 0xffe4b5},
+                                                               {"navajowhite", 0xffdead},
+                                                               {"navy", 0x000080},
+                                                               {"oldlace", 0xfdf5e6},
+                                                               {"olive", 0x808000},
+                                                               {"olivedrab", 0x6b8e23},
+                                                               {"orange", 0xffa500},
+                                                               {"orangered", 0xff4500},
+                                                               {"orchid", 0xda70d6},
+                                                               {"palegoldenrod", 0xeee8aa},
+                                                               {"palegreen", 0x98fb98},
+                                                               {"paleturquoise", 0xafeeee},
+                                                               {"palevioletred", 0xdb7093},
+                                                               {"papayawhip", 0xffefd5},
+                                                               {"peachpuff", 0xffdab9},
+                                                               {"peru", 0xcd853f},
+                                                               {"pink", 0xffc0cb},
+                                                               {"plum", 0xdda0dd},
+                                                               {"powderblue", 0xb0e0e6},
+                                                               {"purple", 0x800080},
+                                                               {"red", 0xff0000},
+                                                               {"rosybrown", 0xbc8f8f},
+                                                               {"royalblue", 0x4169e1},
+                                                               {"saddlebrown", 0x8b4513},
+                                                               {"salmon", 0xfa8072},
+                                                               {"sandybrown", 0xf4a460},
+                                                               {"seagreen", 0x2e8b57},
+                                                               {"seashell", 0xfff5ee},
+                                                               {"sienna", 0xa0522d},
+                                                               {"silver", 0xc0c0c0},
+                                                               {"skyblue", 0x87ceeb},
+                                                               {"slateblue", 0x6a5acd},
+                                                               {"slategray", 0x708090},
+                                                               {"slategrey", 0x708090},
+                                                               {"snow", 0xfffafa},
+                                                               {"springgreen", 0x00ff7f},
+                                                               {"steelblue", 0x4682b4},
+                                                               {"tan", 0xd2b48c},
+                                                               {"teal", 0x008080},
+                                                               {"thistle", 0xd8bfd8},
+                                                               {"tomato", 0xff6347},
+                                                               {"turquoise", 0x40e0d0},
+                                                               {"violet", 0xee82ee},
+                                                               {"wheat", 0xf5deb3},
+                                                               {"white", 0xffffff},
+                                                               {"whitesmoke", 0xf5f5f5},
+                                                               {"yellow", 0xffff00},
+                                                               {"yellowgreen", 0x9acd32}};
     ok = true;
     if (name.size() == 7 && name[0] == '#') {
         unsigned v = 0;
@@ -775,7 +932,8 @@ glm::vec4 colorByName(std::string name, bool& ok) {
         ok = false;
         return glm::vec4(0.f);
     }
-    return glm::vec4(it->second, 1.f);
+    const std::uint32_t v = it->second;
+    return {((v >> 16) & 255) / 255.f, ((v >> 8) & 255) / 255.f, (v & 255) / 255.f, 1.f};
 }
 
 class Evaluator {
@@ -820,9 +978,12 @@ private:
         outline +=
             std::string(static_cast<std::size_t>(2 * depth), ' ') + what + "  (line " + std::to_string(s.line) + ")\n";
     }
-    static int fragments(const Scope& scope) {
+    static int fragments(const Scope& scope, const Statement& s) {
         const Value* fn = scope.find("$fn");
-        return fn && fn->kind == Value::Number && fn->n >= 3 ? static_cast<int>(fn->n) : 0;
+        if (!fn || fn->kind != Value::Number || !(fn->n >= 3)) return 0;
+        if (fn->n > 10000)
+            throw EvalError{s.line, s.col, "$fn = " + std::to_string(fn->n) + " is more than 10,000 sides"};
+        return static_cast<int>(fn->n);
     }
     std::vector<FieldPtr> children(const Statement& s, const Scope& scope, int depth) {
         Scope inner{{}, &scope};
@@ -839,7 +1000,11 @@ private:
     }
     std::string path(const std::string& p) const {
         const std::filesystem::path q(p);
-        return q.is_absolute() ? p : (dir_ / q).string();
+        const std::string full = q.is_absolute() ? p : (dir_ / q).string();
+        std::error_code ec;
+        if (std::filesystem::exists(full, ec) && !std::filesystem::is_regular_file(full, ec))
+            throw IoError(full + ": not a regular file");  // a directory, /dev/zero, a FIFO
+        return full;
     }
     void primitive() { ++scene_.primitives; }
 
@@ -870,7 +1035,7 @@ private:
             Args a = args({"r"});
             const double r = a.has("d") ? 0.5 * a.number("d") : a.number("r", 1.0);
             if (!(r > 0)) throw a.error(a.has("d") ? "d" : "r", "sphere radius must be positive");
-            const int fn = fragments(scope);
+            const int fn = fragments(scope, s);
             return leaf(fn ? makeFacetedSphere(static_cast<float>(r), fn) : implicit::makeSphere(static_cast<float>(r)),
                         fn ? "sphere ($fn=" + std::to_string(fn) + ")" : "sphere");
         }
@@ -887,7 +1052,7 @@ private:
             if (!(h > 0)) throw a.error("h", "cylinder height must be positive");
             if (r1 < 0 || r2 < 0 || r1 + r2 <= 0)
                 throw a.error("r", "cylinder radii must be non-negative and not both zero");
-            const int fn = fragments(scope);
+            const int fn = fragments(scope, s);
             if (fn)
                 return leaf(makeFacetedCylinder(float(r1), float(r2), float(h), center, fn),
                             "cylinder ($fn=" + std::to_string(fn) + ")");
@@ -919,7 +1084,7 @@ private:
         if (n == "circle") {
             Args a = args({"r"});
             const double r = a.has("d") ? 0.5 * a.number("d") : a.number("r", 1.0);
-            const int fn = fragments(scope);
+            const int fn = fragments(scope, s);
             return leaf(fn ? makePolygon2D(regularPolygon(float(r), fn)) : makeCircle2D(float(r)), "circle");
         }
         if (n == "square") {

@@ -18,7 +18,8 @@ packages=(
   # benchmark baselines (bench/vm_numpy.py)
   python3-numpy
 )
-if [ "${ISOFORGE_CI:-}" = 1 ]; then packages+=(clang-format); fi
+# CI also checks formatting and fuzzes the scene parser (clang + libFuzzer).
+if [ "${ISOFORGE_CI:-}" = 1 ]; then packages+=(clang-format clang libclang-rt-14-dev); fi
 
 missing=()
 for p in "${packages[@]}"; do

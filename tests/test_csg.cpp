@@ -133,6 +133,19 @@ TEST(Scene, ErrorsNameFileLineColumnWithACaretAndSeveralAtOnce) {
     EXPECT_NE(errorOf("x = \"abc;").find("string not closed"), std::string::npos);
     EXPECT_NE(errorOf("/* open").find("comment not closed"), std::string::npos);
     EXPECT_NE(errorOf("module m() {}").find("'module' is not supported"), std::string::npos);
+    // Hostile inputs: deep nesting, long operator chains, absurd $fn, devices as files, long lines.
+    std::string deep;
+    for (int i = 0; i < 5000; ++i) deep += "union() {";
+    EXPECT_NE(errorOf(deep).find("nesting deeper than 256 levels"), std::string::npos);
+    EXPECT_NE(errorOf("x = " + std::string(20000, '-') + "1;").find("nesting deeper than 256 levels"),
+              std::string::npos);
+    std::string chain = "x = 1";
+    for (int i = 0; i < 20000; ++i) chain += "+1";
+    e = errorOf(chain + ";");
+    EXPECT_NE(e.find("expression deeper than 256 levels"), std::string::npos);
+    EXPECT_LT(e.size(), 400u) << "long lines are cut around the column";
+    EXPECT_NE(errorOf("sphere(1, $fn = 1e30);").find("more than 10,000 sides"), std::string::npos);
+    EXPECT_NE(errorOf("vm(\"/dev/zero\");").find("not a regular file"), std::string::npos);
 }
 
 TEST(Scene, RealOpenScadExportsMatchOpenScadsOwnMeshes) {
