@@ -44,7 +44,8 @@ bool namesField(const std::string& file, const FieldInput& in) {
     return extensionOf(file) == ".vm" || isSceneFile(file);
 }
 
-implicit::FieldPtr makeField(const std::string& file, const FieldInput& in, implicit::Box3& clip) {
+implicit::FieldPtr makeField(const std::string& file, const FieldInput& in, implicit::Box3& clip,
+                             csg::Scene* sceneOut) {
     const int sources = !file.empty() + !in.shape.empty() + !in.expr.empty();
     if (sources != 1) throw CLI::ValidationError("input", "give exactly one of: a file, --shape, --expr");
     clip = implicit::Box3::everything();
@@ -58,6 +59,7 @@ implicit::FieldPtr makeField(const std::string& file, const FieldInput& in, impl
         for (const auto& w : scene.warnings)
             std::fprintf(stderr, "isoforge: warning: %s: %s\n", w.loc.toString().c_str(), w.message.c_str());
         f = scene.root;
+        if (sceneOut) *sceneOut = std::move(scene);
     } else {
         const auto tape = implicit::readVmFile(file);
         f = implicit::makeTapeField(tape, implicit::Box3::everything(),

@@ -7,6 +7,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "csg/scene.h"
 #include "implicit/field.h"
 
 namespace isoforge::app {
@@ -30,7 +31,8 @@ bool namesField(const std::string& file, const FieldInput& in);
 
 /// The field and the box it is clipped to (everything, --box, or [-1,1]^3 for .vm files).
 /// @throw ParseError / IoError / CLI::ValidationError.
-implicit::FieldPtr makeField(const std::string& file, const FieldInput& in, implicit::Box3& clip);
+implicit::FieldPtr makeField(const std::string& file, const FieldInput& in, implicit::Box3& clip,
+                             csg::Scene* sceneOut = nullptr);
 
 /// Voxel size from --voxel or --resolution (default 256 along the longest side of the domain).
 float voxelSize(const implicit::Field& field, const implicit::Box3& clip, const FieldInput& in);

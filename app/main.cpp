@@ -50,6 +50,7 @@ int main(int argc, char** argv) {
     app::addMeshCommand(app, global, commands);
     app::addCheckCommand(app, global, commands);
     app::addSampleCommand(app, global, commands);
+    app::addRenderCommand(app, global, commands);
     app::addSliceCommand(app, global, commands);
     app::addShapesCommand(app, global, commands);
     app::addCheckSceneCommand(app, global, commands);

@@ -771,7 +771,9 @@ std::vector<std::vector<double>> matrixOf(const Value& v) {
     return m;
 }
 
-glm::vec4 colorByName(std::string name, bool& ok) {
+}  // namespace
+
+glm::vec4 parseColor(std::string name, bool& ok) {
     for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
     // The SVG/CSS colour names OpenSCAD accepts (CSS Color Module Level 4).
     static const std::map<std::string, std::uint32_t> names = {{"aliceblue", 0xf0f8ff},
@@ -935,6 +937,8 @@ glm::vec4 colorByName(std::string name, bool& ok) {
     const std::uint32_t v = it->second;
     return {((v >> 16) & 255) / 255.f, ((v >> 8) & 255) / 255.f, (v & 255) / 255.f, 1.f};
 }
+
+namespace {
 
 class Evaluator {
 public:
@@ -1233,7 +1237,7 @@ private:
             const Value* c = a.raw(key, &cl, &cc);
             if (c && c->kind == Value::String) {
                 bool ok = false;
-                rgba = colorByName(c->s, ok);
+                rgba = parseColor(c->s, ok);
                 if (!ok)
                     throw EvalError{cl, cc,
                                     "unknown colour '" + c->s + "' (use a name such as red, \"#ff8000\" or [r, g, b])"};

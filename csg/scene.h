@@ -47,6 +47,9 @@ struct Scene {
     std::string tree;            ///< an indented outline of the tree, for check-scene
 };
 
+/// A colour by SVG/CSS name ("steelblue") or "#rrggbb", as RGBA in [0, 1] (sRGB); ok = false if unknown.
+glm::vec4 parseColor(std::string name, bool& ok);
+
 /// Parses and evaluates a scene. Several errors are reported at once where possible.
 /// @throw ParseError with one "file:line:column: message" line per error, each followed by the
 ///        source line and a caret under the spot.

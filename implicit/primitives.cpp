@@ -286,9 +286,19 @@ public:
     }
     float value(const glm::vec3& p) const override { return child_->value(local(p)) * scale_; }
     void values(std::span<const glm::vec3> p, std::span<float> out) const override {
-        thread_local std::vector<glm::vec3> q;
+        // One scratch buffer per nesting depth: a transform under a transform must not overwrite
+        // the points its parent (or a boolean's next child) still reads.
+        thread_local std::vector<std::vector<glm::vec3>> pool;
+        thread_local std::size_t depth = 0;
+        if (pool.size() <= depth) pool.resize(depth + 1);
+        std::vector<glm::vec3>& q = pool[depth];
         q.resize(p.size());
         for (std::size_t i = 0; i < p.size(); ++i) q[i] = local(p[i]);
+        struct Nest {
+            std::size_t& d;
+            explicit Nest(std::size_t& x) : d(++x) {}
+            ~Nest() { --d; }
+        } nest(depth);
         child_->values(q, out);
         for (float& v : out) v *= scale_;
     }

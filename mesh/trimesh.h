@@ -13,7 +13,7 @@ namespace isoforge::mesh {
 struct TriMesh {
     std::vector<glm::vec3> positions;
     std::vector<glm::vec3> normals;     ///< empty, or one unit normal per position
-    std::vector<glm::vec3> colors;      ///< empty, or one linear RGB colour in [0, 1] per position
+    std::vector<glm::vec3> colors;      ///< empty, or one RGB colour in [0, 1] per position, sRGB-encoded as files store it
     std::vector<glm::uvec3> triangles;  ///< indices into positions
 
     std::size_t vertexCount() const { return positions.size(); }

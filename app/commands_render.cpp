@@ -1,0 +1,305 @@
+// isoforge render: scenes, fields, grids and meshes to images, through Embree (on a mesh) or by
+// direct ray marching (no mesh).
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <map>
+#include <sstream>
+
+#include <glm/geometric.hpp>
+#include <tbb/parallel_for.h>
+
+#include "app/commands.h"
+#include "app/field_input.h"
+#include "core/error.h"
+#include "core/progress.h"
+#include "csg/scene.h"
+#include "mesh/io.h"
+#include "render/embree_renderer.h"
+#include "render/grid_march.h"
+#include "render/image.h"
+#include "render/ray_march.h"
+#include "volume/marching_cubes.h"
+#include "volume/sample.h"
+#include "volume/vdb_io.h"
+
+namespace isoforge::app {
+
+namespace {
+
+/// "--iso 500:ivory:0.35" -> iso 500, colour ivory, opacity 0.35.
+render::IsoLayer parseIsoLayer(const std::string& text) {
+    std::vector<std::string> parts;
+    std::stringstream ss(text);
+    for (std::string p; std::getline(ss, p, ':');) parts.push_back(p);
+    if (parts.empty() || parts.size() > 3) throw CLI::ValidationError("--iso", "expected VALUE[:COLOUR[:OPACITY]]");
+    render::IsoLayer l;
+    try {
+        std::size_t used = 0;
+        l.iso = std::stof(parts[0], &used);
+        if (used != parts[0].size()) throw std::invalid_argument(parts[0]);
+        if (parts.size() == 3) l.material.color.a = std::stof(parts[2]);
+    } catch (const std::exception&) {
+        throw CLI::ValidationError("--iso", "'" + text + "': expected VALUE[:COLOUR[:OPACITY]] with numbers");
+    }
+    if (parts.size() >= 2) {
+        bool ok = false;
+        const glm::vec4 c = parts[1] == "skin" ? glm::vec4(0.96f, 0.76f, 0.62f, 1.f) : csg::parseColor(parts[1], ok);
+        if (!ok && parts[1] != "skin")
+            throw CLI::ValidationError("--iso", "unknown colour '" + parts[1] + "' (a name such as ivory, or #rrggbb)");
+        l.material.color = glm::vec4(glm::vec3(c), l.material.color.a);
+    }
+    if (!(l.material.color.a > 0.f && l.material.color.a <= 1.f))
+        throw CLI::ValidationError("--iso", "opacity must be in (0, 1]");
+    return l;
+}
+
+/// Splits a scene's mesh into one object per material (materialAt at each triangle's centre).
+std::vector<mesh::TriMesh> splitByMaterial(const mesh::TriMesh& m, const implicit::Field& field,
+                                           std::vector<implicit::Material>& materials) {
+    std::vector<const implicit::Material*> tag(m.triangles.size());
+    tbb::parallel_for(std::size_t{0}, m.triangles.size(), [&](std::size_t i) {
+        const auto& t = m.triangles[i];
+        tag[i] = field.materialAt((m.positions[t.x] + m.positions[t.y] + m.positions[t.z]) / 3.f);
+    });
+    // Materials in order of first use: deterministic.
+    std::map<const implicit::Material*, std::size_t> slot;
+    std::vector<mesh::TriMesh> out;
+    std::vector<std::vector<std::uint32_t>> remap;
+    for (std::size_t i = 0; i < m.triangles.size(); ++i) {
+        auto [it, added] = slot.try_emplace(tag[i], out.size());
+        if (added) {
+            out.emplace_back();
+            remap.emplace_back(m.positions.size(), UINT32_MAX);
+            materials.push_back(tag[i] ? *tag[i] : implicit::Material{});
+        }
+        mesh::TriMesh& o = out[it->second];
+        auto& r = remap[it->second];
+        glm::uvec3 t;
+        for (int k = 0; k < 3; ++k) {
+            const std::uint32_t v = m.triangles[i][k];
+            if (r[v] == UINT32_MAX) {
+                r[v] = static_cast<std::uint32_t>(o.positions.size());
+                o.positions.push_back(m.positions[v]);
+                if (!m.normals.empty()) o.normals.push_back(m.normals[v]);
+            }
+            t[k] = r[v];
+        }
+        o.triangles.push_back(t);
+    }
+    return out;
+}
+
+std::pair<int, int> parseSize(const std::string& s) {
+    int w = 0, h = 0;
+    char x = 0;
+    std::stringstream ss(s);
+    if (!(ss >> w >> x >> h) || x != 'x' || !ss.eof() || w <= 0 || h <= 0)
+        throw CLI::ValidationError("--size", "'" + s + "': expected WIDTHxHEIGHT, e.g. 1920x1080");
+    if (static_cast<double>(w) * h > 2.5e8)
+        throw ResourceError("--size " + s + " is " + std::to_string(static_cast<double>(w) * h * 16 / 1e9) +
+                            " GB of frame buffer; at most 250 megapixels");
+    return {w, h};
+}
+
+}  // namespace
+
+void addRenderCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
+    struct Args {
+        std::string input, output, method = "auto", size = "1024x768", grid, aov, inside = "auto";
+        std::vector<std::string> iso;
+        int spp = 1, ao = 0;
+        bool cameraAuto = false, noShadows = false, orthographic = false;
+        std::vector<float> eye, target;
+        float fov = 0.f;
+        FieldInput field;
+    };
+    auto a = std::make_shared<Args>();
+    auto* cmd = app.add_subcommand("render", "Render a scene, a field, a grid or a mesh to an image");
+    cmd->add_option("input", a->input,
+                    "Scene (.isf, .csg), implicit model (.vm), volume (.vdb) or mesh (.ply .obj .stl); or --shape / "
+                    "--expr");
+    cmd->add_option("-o,--output", a->output, "Image: .png, .jpg, .tif (8-bit sRGB) or .exr (float, with AOVs)")
+        ->required();
+    cmd->add_option("--method", a->method,
+                    "mesh: marching cubes, then Embree ray casting; march: rays against the field or grid, no mesh; "
+                    "auto: march for grids, mesh otherwise")
+        ->check(CLI::IsMember({"auto", "mesh", "march"}));
+    cmd->add_option("--size", a->size, "Image size WIDTHxHEIGHT (default 1024x768)");
+    cmd->add_option("--spp", a->spp, "Samples per pixel (anti-aliasing; default 1)")->check(CLI::Range(1, 1024));
+    cmd->add_option("--iso", a->iso, "Iso-surface of a grid, VALUE[:COLOUR[:OPACITY]]; repeat for several (default 0)");
+    cmd->add_option("--inside", a->inside, "For grids: below, above or auto (by grid class)")
+        ->check(CLI::IsMember({"auto", "below", "above"}));
+    cmd->add_option("--grid", a->grid, "Grid name in a .vdb file");
+    cmd->add_option("--aov", a->aov, "Extra channels for .exr: any of depth,normal,id (comma-separated)");
+    cmd->add_flag("--camera-auto", a->cameraAuto, "Frame the object automatically, ignoring the scene's camera");
+    cmd->add_option("--eye", a->eye, "Camera position x,y,z")->expected(3)->delimiter(',');
+    cmd->add_option("--target", a->target, "Point looked at x,y,z")->expected(3)->delimiter(',');
+    cmd->add_option("--fov", a->fov, "Vertical field of view, degrees")->check(CLI::Range(1.f, 179.f));
+    cmd->add_flag("--orthographic", a->orthographic, "Orthographic projection");
+    cmd->add_flag("--no-shadows", a->noShadows, "No shadow rays");
+    cmd->add_option("--ao", a->ao, "Ambient-occlusion rays per hit (default 0: off)")->check(CLI::Range(0, 256));
+    addFieldOptions(cmd, a->field, true);
+    cmd->callback([&c, &g, a] {
+        c.run = [&g, a] {
+            using Clock = std::chrono::steady_clock;
+            const auto t0 = Clock::now();
+            const std::string ext = std::filesystem::path(a->output).extension().string();
+            static const std::vector<std::string> kImage{".png", ".jpg", ".jpeg", ".tif", ".tiff", ".exr"};
+            if (std::find(kImage.begin(), kImage.end(), ext) == kImage.end())
+                throw CLI::ValidationError("--output", a->output + ": expected a .png, .jpg, .tif or .exr file name");
+            render::RenderOptions opt;
+            std::tie(opt.width, opt.height) = parseSize(a->size);
+            opt.spp = a->spp;
+            opt.shadows = !a->noShadows;
+            opt.aoSamples = a->ao;
+            for (std::stringstream ss(a->aov); ss.good();) {
+                std::string k;
+                std::getline(ss, k, ',');
+                if (k == "depth")
+                    opt.depth = true;
+                else if (k == "normal")
+                    opt.normal = true;
+                else if (k == "id")
+                    opt.objectId = true;
+                else if (!k.empty())
+                    throw CLI::ValidationError("--aov", "unknown channel '" + k + "' (depth, normal, id)");
+            }
+            if ((opt.depth || opt.normal || opt.objectId) && ext != ".exr")
+                throw CLI::ValidationError("--aov", "extra channels need an .exr output");
+            TerminalProgress progress;
+            Progress* prog = g.quiet ? nullptr : &progress;
+            opt.progress = prog;
+
+            render::Look look;
+            bool haveCamera = false;
+            implicit::Box3 bounds;
+            std::vector<mesh::TriMesh> meshes;
+            std::vector<implicit::Material> materials;
+            implicit::FieldPtr field;
+            implicit::Box3 clip;
+            openvdb::FloatGrid::Ptr grid;
+            std::string what, method = a->method;
+            std::vector<render::IsoLayer> layers;
+            for (const auto& s : a->iso) layers.push_back(parseIsoLayer(s));
+
+            const bool meshInput =
+                !a->input.empty() && mesh::isMeshPath(a->input) && a->field.shape.empty() && a->field.expr.empty();
+            if (meshInput) {
+                if (method == "march") throw CLI::ValidationError("--method", "a mesh is rendered with --method mesh");
+                method = "mesh";
+                meshes.push_back(mesh::readMesh(a->input));
+                materials.emplace_back();
+                what = a->input;
+            } else if (namesField(a->input, a->field)) {
+                csg::Scene scene;
+                field = makeField(a->input, a->field, clip, &scene);
+                for (const auto& w : scene.warnings) (void)w;  // printed by makeField
+                if (scene.root) {
+                    look.camera.eye = scene.camera.eye;
+                    look.camera.target = scene.camera.target;
+                    look.camera.up = scene.camera.up;
+                    look.camera.fov = scene.camera.fov;
+                    look.camera.orthographic = scene.camera.orthographic;
+                    haveCamera = scene.camera.given;
+                    for (const auto& l : scene.lights) look.lights.push_back({l.point, l.vector, l.color, l.intensity});
+                    look.backgroundTop = scene.backgroundTop;
+                    look.backgroundBottom = scene.backgroundBottom;
+                }
+                bounds = volume::sampleDomain(*field, clip);
+                what = field->describe();
+                if (method == "auto") method = "mesh";
+                if (method == "mesh") {
+                    volume::SampleOptions so;
+                    FieldInput fine = a->field;  // images want finer meshes than files: 512 by default
+                    if (fine.voxel <= 0 && fine.resolution <= 0) fine.resolution = 512;
+                    so.voxelSize = voxelSize(*field, clip, fine);
+                    so.clip = clip;
+                    so.progress = prog;
+                    const auto sampled = volume::sample(field, so);
+                    volume::MeshingOptions mo;
+                    mo.normals = true;
+                    mo.progress = prog;
+                    const mesh::TriMesh m = volume::extractIsosurface(*sampled, mo);
+                    meshes = splitByMaterial(m, *field, materials);
+                }
+            } else {
+                if (a->input.empty()) throw CLI::ValidationError("input", "give a file, --shape or --expr");
+                grid = volume::readFloatGrid(a->input, a->grid.empty() ? std::nullopt : std::optional(a->grid));
+                what = "grid '" + grid->getName() + "'";
+                if (layers.empty()) layers.push_back({});
+                const openvdb::CoordBBox ab = grid->evalActiveVoxelBoundingBox();
+                if (!ab.empty()) {
+                    const openvdb::BBoxd w = grid->transform().indexToWorld(ab);
+                    bounds = {glm::vec3(float(w.min().x()), float(w.min().y()), float(w.min().z())),
+                              glm::vec3(float(w.max().x()), float(w.max().y()), float(w.max().z()))};
+                }
+                if (method == "auto") method = "march";
+                if (method == "mesh") {
+                    const bool below = volume::insideIsBelow(*grid, a->inside == "below"   ? volume::InsideSide::Below
+                                                                    : a->inside == "above" ? volume::InsideSide::Above
+                                                                                           : volume::InsideSide::Auto);
+                    for (const auto& l : layers) {
+                        volume::MeshingOptions mo;
+                        mo.isovalue = l.iso;
+                        mo.normals = true;
+                        mo.inside = below ? volume::InsideSide::Below : volume::InsideSide::Above;
+                        mo.progress = prog;
+                        meshes.push_back(volume::extractIsosurface(*grid, mo));
+                        materials.push_back(l.material);
+                    }
+                }
+            }
+            if (!meshes.empty()) {
+                bounds = {};
+                for (const auto& m : meshes)
+                    for (const auto& p : m.positions) bounds = bounds.unite(implicit::Box3{p, p});
+            }
+            const float aspect = float(opt.width) / float(opt.height);
+            if (!haveCamera || a->cameraAuto) {
+                const implicit::Box3 frameOf =
+                    bounds.isEmpty() ? implicit::Box3{glm::vec3(-1.f), glm::vec3(1.f)} : bounds;
+                look.camera = render::frameBox(frameOf, aspect);
+            }
+            if (!a->eye.empty()) look.camera.eye = glm::vec3(a->eye[0], a->eye[1], a->eye[2]);
+            if (!a->target.empty()) look.camera.target = glm::vec3(a->target[0], a->target[1], a->target[2]);
+            if (a->fov > 0) look.camera.fov = a->fov;
+            if (a->orthographic) look.camera.orthographic = true;
+            if (glm::length(look.camera.target - look.camera.eye) <= 0.f)
+                throw CLI::ValidationError("--eye", "the camera's eye and target are the same point");
+
+            render::RenderStats st;
+            render::Frame frame;
+            if (method == "mesh") {
+                std::vector<render::MeshObject> objs;
+                for (std::size_t i = 0; i < meshes.size(); ++i) objs.push_back({&meshes[i], materials[i], true});
+                frame = render::renderMeshes(objs, look, opt, &st);
+            } else if (grid) {
+                const bool below = volume::insideIsBelow(*grid, a->inside == "below"   ? volume::InsideSide::Below
+                                                                : a->inside == "above" ? volume::InsideSide::Above
+                                                                                       : volume::InsideSide::Auto);
+                frame = render::marchGrid(*grid, layers, below, look, opt, &st);
+            } else {
+                frame = render::marchField(field, bounds, look, opt, &st);
+            }
+            for (const auto& w : st.warnings) std::fprintf(stderr, "isoforge: warning: %s\n", w.c_str());
+            render::writeImage(a->output, ext == ".exr" ? render::toImage(frame) : render::toDisplayImage(frame));
+            if (!g.quiet) {
+                std::size_t tris = 0;
+                for (const auto& m : meshes) tris += m.triangleCount();
+                std::printf(
+                    "rendered %s (%s%s) at %dx%d, %d spp: %.2f Mrays/s, %s of %s pixels hit, %.2f s "
+                    "(%.2f s total) -> %s\n",
+                    what.c_str(), method == "mesh" ? "Embree, " : "ray marching",
+                    method == "mesh" ? (withCommas(tris) + " triangles").c_str() : "", opt.width, opt.height, opt.spp,
+                    double(st.primaryRays) / st.seconds / 1e6, withCommas(st.hitPixels).c_str(),
+                    withCommas(frame.pixels()).c_str(), st.seconds,
+                    std::chrono::duration<double>(Clock::now() - t0).count(), a->output.c_str());
+            }
+            return 0;
+        };
+    });
+}
+
+}  // namespace isoforge::app

@@ -1,0 +1,230 @@
+#include "render/grid_march.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <optional>
+#include <stdexcept>
+
+#include <openvdb/tools/Interpolation.h>
+#include <openvdb/tools/RayIntersector.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <glm/geometric.hpp>
+
+#include "render/shading.h"
+
+namespace isoforge::render {
+
+namespace {
+
+constexpr float kInf = std::numeric_limits<float>::infinity();
+using Intersector = openvdb::tools::VolumeRayIntersector<openvdb::FloatGrid, 0>;  // spans of leaf nodes
+using Accessor = openvdb::FloatGrid::ConstAccessor;
+using IndexRay = openvdb::math::Ray<double>;
+
+struct ThreadState {
+    Intersector inter;
+    Accessor acc;
+};
+
+struct Crossing {
+    double t;     ///< index-ray time of the last sample on the near side
+    int layer;    ///< which iso-surface
+    bool inward;  ///< entering the inside of that layer
+};
+
+class GridMarcher {
+public:
+    GridMarcher(const openvdb::FloatGrid& g, const std::vector<IsoLayer>& layers, bool below)
+        : g_(g), layers_(layers), below_(below), levelSet_(g.getGridClass() == openvdb::GRID_LEVEL_SET) {
+        voxel_ = g.voxelSize()[0];
+    }
+
+    float sample(Accessor& acc, const openvdb::Vec3d& ijk) const {
+        return openvdb::tools::BoxSampler::sample(acc, ijk);
+    }
+    unsigned insideMask(float v) const {
+        unsigned m = 0;
+        for (std::size_t i = 0; i < layers_.size(); ++i)
+            if (below_ ? v < layers_[i].iso : v > layers_[i].iso) m |= 1u << i;
+        return m;
+    }
+
+    /// The first crossing of any layer along the index ray, after time tStart.
+    std::optional<Crossing> first(ThreadState& st, const IndexRay& ray, double tStart, double tEnd) const {
+        if (!st.inter.setIndexRay(ray)) return std::nullopt;
+        double t0 = 0, t1 = 0, prevT = -1;
+        unsigned prevMask = 0;
+        bool havePrev = false;
+        while (st.inter.march(t0, t1)) {
+            if (t1 < tStart) continue;
+            if (t0 > tEnd) break;
+            // Across a gap between spans (inactive values), the samples either side still bracket a crossing.
+            double t = std::max(t0, tStart);
+            const double end = std::min(t1, tEnd);
+            for (;;) {
+                const float v = sample(st.acc, ray(t));
+                const unsigned mask = insideMask(v);
+                if (havePrev && mask != prevMask) return refine(st.acc, ray, prevT, t, prevMask, mask);
+                havePrev = true;
+                prevT = t;
+                prevMask = mask;
+                if (t >= end) break;
+                double step = 0.5;
+                if (levelSet_) {
+                    float near = kInf;
+                    for (const IsoLayer& l : layers_) near = std::min(near, std::abs(v - l.iso));
+                    step = std::max(0.8 * double(near) / voxel_, 0.25);
+                }
+                t = std::min(t + step, end);
+            }
+        }
+        return std::nullopt;
+    }
+
+    /// Bisection on the first layer whose side changes between ta (mask ma) and tb (mask mb).
+    Crossing refine(Accessor& acc, const IndexRay& ray, double ta, double tb, unsigned ma, unsigned mb) const {
+        Crossing best{tb, 0, false};
+        for (std::size_t i = 0; i < layers_.size(); ++i) {
+            const unsigned bit = 1u << i;
+            if ((ma & bit) == (mb & bit)) continue;
+            double a = ta, b = tb;
+            for (int k = 0; k < 20; ++k) {
+                const double m = 0.5 * (a + b);
+                if ((insideMask(sample(acc, ray(m))) & bit) == (ma & bit))
+                    a = m;
+                else
+                    b = m;
+            }
+            if (a < best.t || best.t == tb) best = {a, static_cast<int>(i), (mb & bit) != 0};
+        }
+        return best;
+    }
+
+    /// Outward normal (world) of layer `layer` at index position p.
+    glm::vec3 normal(Accessor& acc, const openvdb::Vec3d& p) const {
+        const openvdb::Vec3d g(sample(acc, p + openvdb::Vec3d(0.5, 0, 0)) - sample(acc, p - openvdb::Vec3d(0.5, 0, 0)),
+                               sample(acc, p + openvdb::Vec3d(0, 0.5, 0)) - sample(acc, p - openvdb::Vec3d(0, 0.5, 0)),
+                               sample(acc, p + openvdb::Vec3d(0, 0, 0.5)) - sample(acc, p - openvdb::Vec3d(0, 0, 0.5)));
+        openvdb::Vec3d w = g_.transform().baseMap()->applyIJT(g, p);
+        if (!below_) w = -w;
+        const double len = w.length();
+        return len > 0 ? glm::vec3(w.x() / len, w.y() / len, w.z() / len) : glm::vec3(0, 0, 1);
+    }
+
+private:
+    const openvdb::FloatGrid& g_;
+    const std::vector<IsoLayer>& layers_;
+    bool below_, levelSet_;
+    double voxel_;
+};
+
+}  // namespace
+
+Frame marchGrid(const openvdb::FloatGrid& grid, const std::vector<IsoLayer>& layers, bool insideBelow, const Look& look,
+                const RenderOptions& o, RenderStats* stats) {
+    const auto start = std::chrono::steady_clock::now();
+    if (o.width <= 0 || o.height <= 0) throw std::invalid_argument("image size must be positive");
+    if (layers.empty() || layers.size() > 16) throw std::invalid_argument("give 1 to 16 iso-surfaces");
+    if (!grid.hasUniformVoxels())
+        throw std::invalid_argument("the grid's voxels are not cubes: render it with --method mesh");
+    const std::vector<Light> lights = look.lights.empty() ? defaultLights(look.camera) : look.lights;
+    std::uint64_t hitPixels = 0;
+    if (grid.tree().activeVoxelCount() == 0 && grid.tree().activeTileCount() == 0) {
+        Frame f = detail::renderTiles(
+            look, o,
+            [&](const detail::Ray&, std::size_t, std::size_t, float py) {
+                detail::SampleResult r;
+                r.color = detail::background(look, py, o.height);
+                return r;
+            },
+            hitPixels);
+        if (stats) stats->warnings.push_back("the grid has no active values: nothing to render");
+        return f;
+    }
+    const Intersector master(grid);
+    tbb::enumerable_thread_specific<ThreadState> states([&] { return ThreadState{master, Accessor(grid.tree())}; });
+    const GridMarcher marcher(grid, layers, insideBelow);
+    const auto& xform = grid.transform();
+    const double voxel = grid.voxelSize()[0];
+
+    auto toIndexRay = [&](const glm::vec3& o3, const glm::vec3& d3) {
+        const IndexRay w(openvdb::Vec3d(o3.x, o3.y, o3.z), openvdb::Vec3d(d3.x, d3.y, d3.z));
+        return w.worldToIndex(grid);  // index-ray time = world distance / voxel size
+    };
+    auto blocked = [&](ThreadState& st, const glm::vec3& origin, const glm::vec3& d, float tmax) {
+        // Shadows: only opaque layers block light.
+        const IndexRay r = toIndexRay(origin, d);
+        double t = 0;
+        const double end = std::isfinite(tmax) ? double(tmax) / voxel : std::numeric_limits<double>::max();
+        for (int k = 0; k < 16; ++k) {
+            const auto c = marcher.first(st, r, t, end);
+            if (!c) return false;
+            if (layers[static_cast<std::size_t>(c->layer)].material.color.a >= 1.f) return true;
+            t = c->t + 0.3;
+        }
+        return false;
+    };
+    auto trace = [&](const detail::Ray& ray, std::size_t pix, std::size_t s, float py) {
+        ThreadState& st = states.local();
+        detail::SampleResult out;
+        glm::vec3 acc(0.f);
+        float transmit = 1.f;
+        const IndexRay iray = toIndexRay(ray.origin, ray.dir);
+        double t = 0;
+        for (int layer = 0; layer < 16 && transmit > 0.004f; ++layer) {
+            const auto c = marcher.first(st, iray, t, std::numeric_limits<double>::max());
+            if (!c) break;
+            const openvdb::Vec3d ip = iray(c->t);
+            const openvdb::Vec3d wp = xform.indexToWorld(ip);
+            const IsoLayer& L = layers[static_cast<std::size_t>(c->layer)];
+            detail::Surface surf;
+            surf.position = glm::vec3(wp.x(), wp.y(), wp.z());
+            glm::vec3 n = marcher.normal(st.acc, ip);
+            if (glm::dot(n, ray.dir) > 0) n = -n;
+            surf.normal = n;
+            surf.albedo = srgbToLinear(glm::vec3(L.material.color));
+            surf.opacity = L.material.color.a;
+            surf.diffuse = L.material.diffuse;
+            surf.specular = L.material.specular;
+            surf.shininess = L.material.shininess;
+            const glm::vec3 origin = surf.position + n * float(0.75 * voxel);
+            const float tWorld = float(c->t * voxel);
+            auto visible = [&](std::size_t li, const glm::vec3& Ld) {
+                if (!o.shadows) return true;
+                return !blocked(st, origin, Ld, lights[li].point ? glm::length(lights[li].vector - origin) : kInf);
+            };
+            const float ao = detail::ambientOcclusion(
+                n, o.aoSamples, static_cast<std::uint32_t>(pix * 64u + s * 16u + static_cast<std::size_t>(layer)),
+                [&](const glm::vec3& d) {
+                    return !blocked(st, origin, d, o.aoDistance > 0 ? o.aoDistance : float(20 * voxel));
+                });
+            acc += transmit * surf.opacity * detail::shade(surf, ray.dir, lights, look.ambient, ao, visible);
+            if (!out.hit) {
+                out.hit = true;
+                out.depth = tWorld;
+                out.normal = n;
+                out.id = float(c->layer + 1);
+            }
+            transmit *= 1.f - surf.opacity;
+            t = c->t + 0.3;  // past this crossing
+        }
+        out.color = acc + transmit * detail::background(look, py, o.height);
+        return out;
+    };
+    Frame f = detail::renderTiles(look, o, trace, hitPixels);
+    if (stats) {
+        stats->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        stats->primaryRays = f.pixels() * static_cast<std::size_t>(std::max(o.spp, 1));
+        stats->hitPixels = hitPixels;
+        const openvdb::Vec3d e =
+            xform.worldToIndex(openvdb::Vec3d(look.camera.eye.x, look.camera.eye.y, look.camera.eye.z));
+        Accessor a(grid.tree());
+        if (marcher.insideMask(openvdb::tools::BoxSampler::sample(a, e)) != 0)
+            stats->warnings.push_back("the camera is inside a surface: the view shows it from inside");
+    }
+    return f;
+}
+
+}  // namespace isoforge::render

@@ -1,0 +1,209 @@
+#pragma once
+/// @file Internal to render/: camera rays, the sample pattern, and the shading model shared by the
+/// Embree and ray-marching renderers (so that the two paths give the same image for the same hits).
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <glm/geometric.hpp>
+#include <glm/trigonometric.hpp>
+#include <glm/vec2.hpp>
+
+#include "core/progress.h"
+#include "render/scene.h"
+
+namespace isoforge::render::detail {
+
+struct Ray {
+    glm::vec3 origin, dir;  ///< dir is unit length
+};
+
+/// Rays through pixel positions (x, y in pixels, y down, (0, 0) the top-left corner).
+class RayGenerator {
+public:
+    RayGenerator(const Camera& c, int width, int height) : c_(c), w_(width), h_(height) {
+        f_ = glm::normalize(c.target - c.eye);
+        r_ = glm::cross(f_, c.up);
+        if (glm::length(r_) < 1e-6f)
+            r_ = glm::cross(f_, std::abs(f_.z) < 0.9f ? glm::vec3(0, 0, 1) : glm::vec3(1, 0, 0));
+        r_ = glm::normalize(r_);
+        u_ = glm::cross(r_, f_);
+        aspect_ = float(width) / float(height);
+        half_ = c.orthographic
+                    ? 0.5f * (c.orthoHeight > 0
+                                  ? c.orthoHeight
+                                  : 2.f * glm::length(c.target - c.eye) * std::tan(glm::radians(c.fov) * 0.5f))
+                    : std::tan(glm::radians(c.fov) * 0.5f);
+    }
+    Ray operator()(float x, float y) const {
+        const float sx = (2.f * x / float(w_) - 1.f) * half_ * aspect_, sy = (1.f - 2.f * y / float(h_)) * half_;
+        if (c_.orthographic) return {c_.eye + sx * r_ + sy * u_, f_};
+        return {c_.eye, glm::normalize(f_ + sx * r_ + sy * u_)};
+    }
+    /// World size of a pixel at distance t along a ray (for epsilons and step limits).
+    float pixelSize(float t) const {
+        return (c_.orthographic ? 2.f * half_ : 2.f * half_ * std::max(t, 1e-6f)) / float(h_);
+    }
+    const glm::vec3& forward() const { return f_; }
+
+private:
+    Camera c_;
+    int w_, h_;
+    glm::vec3 f_, r_, u_;
+    float aspect_, half_;
+};
+
+/// Sub-pixel offsets: the R2 low-discrepancy sequence (Roberts), the first one at the centre.
+inline std::vector<glm::vec2> samplePattern(int spp) {
+    std::vector<glm::vec2> s;
+    for (int k = 0; k < std::max(spp, 1); ++k) {
+        const double a = 0.5 + k * 0.7548776662466927, b = 0.5 + k * 0.5698402909980532;
+        s.emplace_back(float(a - std::floor(a)), float(b - std::floor(b)));
+    }
+    return s;
+}
+
+inline float srgbToLinear1(float c) {
+    return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
+}
+
+/// What a hit needs to be shaded.
+struct Surface {
+    glm::vec3 position, normal;  ///< normal: unit, facing the viewer
+    glm::vec3 albedo;            ///< linear
+    float opacity = 1.f;
+    float diffuse = 0.9f, specular = 0.25f, shininess = 40.f;
+};
+
+/// Blinn-Phong with a hemispherical ambient term; `visible(l)` tells whether light l reaches the
+/// point (shadows), `ambientOcclusion` scales the ambient term.
+template <class Visible>
+glm::vec3 shade(const Surface& s, const glm::vec3& viewDir, const std::vector<Light>& lights, float ambient,
+                float ambientOcclusion, Visible&& visible) {
+    const glm::vec3 v = -viewDir;
+    const float hemi = 0.6f + 0.4f * s.normal.z;  // sky above (+z up), ground below
+    glm::vec3 c = s.albedo * (ambient * hemi * ambientOcclusion);
+    for (std::size_t i = 0; i < lights.size(); ++i) {
+        const Light& l = lights[i];
+        const glm::vec3 L = l.point ? glm::normalize(l.vector - s.position) : -glm::normalize(l.vector);
+        const float nl = glm::dot(s.normal, L);
+        if (nl <= 0.f) continue;
+        if (!visible(i, L)) continue;
+        const glm::vec3 radiance = l.color * l.intensity;
+        const glm::vec3 h = glm::normalize(L + v);
+        const float spec = s.specular * std::pow(std::max(glm::dot(s.normal, h), 0.f), s.shininess);
+        c += radiance * (s.albedo * (s.diffuse * nl) + glm::vec3(spec));
+    }
+    return c;
+}
+
+/// Background (linear) for a pixel row.
+inline glm::vec3 background(const Look& look, float y, int height) {
+    const float t = glm::clamp(y / float(std::max(height, 1)), 0.f, 1.f);
+    const glm::vec3 top(srgbToLinear1(look.backgroundTop.x), srgbToLinear1(look.backgroundTop.y),
+                        srgbToLinear1(look.backgroundTop.z));
+    const glm::vec3 bottom(srgbToLinear1(look.backgroundBottom.x), srgbToLinear1(look.backgroundBottom.y),
+                           srgbToLinear1(look.backgroundBottom.z));
+    return glm::mix(top, bottom, t);
+}
+
+/// Splits the image into 16x16 tiles for parallel rendering.
+constexpr int kTile = 16;
+
+/// What tracing one camera sample gives.
+struct SampleResult {
+    glm::vec3 color{0.f};  ///< linear, background included where the ray ends on it
+    bool hit = false;
+    float depth = 0.f;
+    glm::vec3 normal{0.f};
+    float id = 0.f;
+};
+
+/// The tile loop both renderers share: TBB over 16x16 tiles, the sample pattern per pixel, the
+/// AOVs of the first sample, progress per tile. `trace(ray, pixelIndex, sampleIndex, yPixel)` does
+/// the work. Every pixel is computed alone, so the frame does not depend on the thread count.
+template <class Trace>
+Frame renderTiles(const Look& look, const RenderOptions& o, Trace&& trace, std::uint64_t& hitPixels) {
+    Frame f;
+    f.width = o.width;
+    f.height = o.height;
+    f.color.assign(f.pixels(), glm::vec4(0.f));
+    if (o.depth) f.depth.assign(f.pixels(), std::numeric_limits<float>::infinity());
+    if (o.normal) f.normal.assign(f.pixels(), glm::vec3(0.f));
+    if (o.objectId) f.objectId.assign(f.pixels(), 0.f);
+    const RayGenerator rays(look.camera, o.width, o.height);
+    const auto pattern = samplePattern(o.spp);
+    const int tilesX = (o.width + kTile - 1) / kTile, tilesY = (o.height + kTile - 1) / kTile;
+    std::atomic<std::uint64_t> hits{0};
+    std::atomic<std::size_t> tilesDone{0};
+    if (o.progress) o.progress->begin("rendering");
+    tbb::parallel_for(tbb::blocked_range<int>(0, tilesX * tilesY, 1), [&](const tbb::blocked_range<int>& range) {
+        std::uint64_t localHits = 0;
+        for (int tile = range.begin(); tile != range.end(); ++tile) {
+            const int x0 = (tile % tilesX) * kTile, y0 = (tile / tilesX) * kTile;
+            for (int y = y0; y < std::min(y0 + kTile, o.height); ++y)
+                for (int x = x0; x < std::min(x0 + kTile, o.width); ++x) {
+                    const std::size_t pix =
+                        static_cast<std::size_t>(y) * static_cast<std::size_t>(o.width) + static_cast<std::size_t>(x);
+                    glm::vec3 sum(0.f);
+                    float coverage = 0.f;
+                    for (std::size_t s = 0; s < pattern.size(); ++s) {
+                        const float py = float(y) + pattern[s].y;
+                        const SampleResult r = trace(rays(float(x) + pattern[s].x, py), pix, s, py);
+                        sum += r.color;
+                        coverage += r.hit ? 1.f : 0.f;
+                        if (s == 0 && r.hit) {
+                            if (o.depth) f.depth[pix] = r.depth;
+                            if (o.normal) f.normal[pix] = r.normal;
+                            if (o.objectId) f.objectId[pix] = r.id;
+                        }
+                    }
+                    const float inv = 1.f / float(pattern.size());
+                    f.color[pix] = glm::vec4(sum * inv, coverage * inv);
+                    localHits += coverage > 0;
+                }
+            if (o.progress) o.progress->update(++tilesDone, static_cast<std::size_t>(tilesX * tilesY));
+        }
+        hits += localHits;
+    });
+    if (o.progress) o.progress->end();
+    hitPixels = hits;
+    return f;
+}
+
+/// Deterministic per-pixel random numbers (ambient occlusion).
+inline float hashToUnit(std::uint32_t x) {
+    x ^= x >> 16;
+    x *= 0x7feb352dU;
+    x ^= x >> 15;
+    x *= 0x846ca68bU;
+    x ^= x >> 16;
+    return float(x >> 8) * (1.f / 16777216.f);
+}
+
+/// Ambient occlusion: the fraction of `samples` cosine-weighted directions around n that `open(d)`
+/// says are free, with a fixed hash of (pixel, sample, layer) for the directions.
+template <class Open>
+float ambientOcclusion(const glm::vec3& n, int samples, std::uint32_t seed, Open&& open) {
+    if (samples <= 0) return 1.f;
+    const glm::vec3 t1 =
+        glm::normalize(std::abs(n.x) < 0.9f ? glm::cross(n, glm::vec3(1, 0, 0)) : glm::cross(n, glm::vec3(0, 1, 0)));
+    const glm::vec3 t2 = glm::cross(n, t1);
+    int free = 0;
+    for (int k = 0; k < samples; ++k) {
+        const auto h = seed * 131u + static_cast<std::uint32_t>(k) * 7919u;
+        const float r1 = hashToUnit(h), r2 = hashToUnit(h ^ 0x9e3779b9u);
+        const float r = std::sqrt(r1), phi = 6.2831853f * r2;
+        free += open(r * std::cos(phi) * t1 + r * std::sin(phi) * t2 + std::sqrt(std::max(0.f, 1.f - r1)) * n) ? 1 : 0;
+    }
+    return float(free) / float(samples);
+}
+
+}  // namespace isoforge::render::detail
