@@ -7,8 +7,8 @@
 #include <map>
 #include <sstream>
 
-#include <glm/geometric.hpp>
 #include <tbb/parallel_for.h>
+#include <glm/geometric.hpp>
 
 #include "app/commands.h"
 #include "app/field_input.h"

@@ -107,8 +107,10 @@ Frame renderMeshes(const std::vector<MeshObject>& objects, const Look& look, con
     rtcCommitScene(all.get());
     if (anyTranslucent) rtcCommitScene(opaque.get());
     RTCScene shadowScene = anyTranslucent ? opaque.get() : all.get();
+    const double setup = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
     const std::vector<Light> lights = look.lights.empty() ? defaultLights(look.camera) : look.lights;
+    const detail::Background background(look);
     const float sceneSize = box.isEmpty() ? 1.f : glm::length(box.size());
     const float aoReach = o.aoDistance > 0 ? o.aoDistance : 0.05f * sceneSize;
     const float eps = 1e-5f * sceneSize;
@@ -189,13 +191,14 @@ Frame renderMeshes(const std::vector<MeshObject>& objects, const Look& look, con
             transmit *= 1.f - surf.opacity;
             tmin = rh.ray.tfar + eps + 1e-4f * rh.ray.tfar;
         }
-        out.color = acc + transmit * detail::background(look, py, o.height);
+        out.color = acc + transmit * background.at(py, o.height);
         return out;
     };
     std::uint64_t hitPixels = 0;
     Frame f = detail::renderTiles(look, o, trace, hitPixels);
     if (stats) {
         stats->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        stats->setupSeconds = setup;
         stats->primaryRays = f.pixels() * static_cast<std::size_t>(std::max(o.spp, 1));
         stats->hitPixels = hitPixels;
         if (data.empty()) stats->warnings.push_back("nothing to render: no triangles");

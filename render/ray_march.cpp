@@ -58,7 +58,8 @@ private:
         for (int i = 0; i < 2048 && t <= tb; ++i) {
             const float d = side * v;
             if (d < 0) return refine(r, t - eps(t), t, side);  // stepped over: the field is not exact there
-            if (d < eps(t) && t > ta) return t;
+            // Close to the surface: a hit only where the sign changes within a small step, so that
+            // rays grazing the silhouette pass by (exact silhouettes, no dilation by the epsilon).
             const float tn = t + std::max(d, 0.5f * eps(t));
             v = value(r, std::min(tn, tb));
             if (side * v < 0) return refine(r, t, std::min(tn, tb), side);
@@ -121,6 +122,7 @@ Frame marchField(const implicit::FieldPtr& field, const implicit::Box3& region, 
     if (o.width <= 0 || o.height <= 0) throw std::invalid_argument("image size must be positive");
     const detail::RayGenerator rays(look.camera, o.width, o.height);
     const std::vector<Light> lights = look.lights.empty() ? defaultLights(look.camera) : look.lights;
+    const detail::Background background(look);
     const float sceneSize = region.isEmpty() || !region.isBounded() ? 1.f : glm::length(region.size());
     const float eps = 1e-5f * sceneSize;
     const float aoReach = o.aoDistance > 0 ? o.aoDistance : 0.05f * sceneSize;
@@ -213,7 +215,7 @@ Frame marchField(const implicit::FieldPtr& field, const implicit::Box3& region, 
             // Past the surface: step to the other side and look for the next crossing.
             t = *hit + 2.f * std::max(eps, 0.25f * rays.pixelSize(*hit));
         }
-        out.color = acc + transmit * detail::background(look, py, o.height);
+        out.color = acc + transmit * background.at(py, o.height);
         return out;
     };
     std::uint64_t hitPixels = 0;

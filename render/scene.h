@@ -58,7 +58,8 @@ struct RenderOptions {
 };
 
 struct RenderStats {
-    double seconds = 0;
+    double seconds = 0;       ///< the whole call
+    double setupSeconds = 0;  ///< of which building acceleration structures (Embree's BVH)
     std::uint64_t primaryRays = 0;
     std::uint64_t hitPixels = 0;
     std::vector<std::string> warnings;

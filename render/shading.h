@@ -104,15 +104,22 @@ glm::vec3 shade(const Surface& s, const glm::vec3& viewDir, const std::vector<Li
     return c;
 }
 
-/// Background (linear) for a pixel row.
-inline glm::vec3 background(const Look& look, float y, int height) {
-    const float t = glm::clamp(y / float(std::max(height, 1)), 0.f, 1.f);
-    const glm::vec3 top(srgbToLinear1(look.backgroundTop.x), srgbToLinear1(look.backgroundTop.y),
-                        srgbToLinear1(look.backgroundTop.z));
-    const glm::vec3 bottom(srgbToLinear1(look.backgroundBottom.x), srgbToLinear1(look.backgroundBottom.y),
-                           srgbToLinear1(look.backgroundBottom.z));
-    return glm::mix(top, bottom, t);
-}
+/// The background gradient in linear light, converted once per frame.
+class Background {
+public:
+    explicit Background(const Look& look)
+        : top_(srgbToLinear1(look.backgroundTop.x), srgbToLinear1(look.backgroundTop.y),
+               srgbToLinear1(look.backgroundTop.z)),
+          bottom_(srgbToLinear1(look.backgroundBottom.x), srgbToLinear1(look.backgroundBottom.y),
+                  srgbToLinear1(look.backgroundBottom.z)) {}
+    /// Colour at pixel row y (fractional) of an image `height` rows high.
+    glm::vec3 at(float y, int height) const {
+        return glm::mix(top_, bottom_, glm::clamp(y / float(std::max(height, 1)), 0.f, 1.f));
+    }
+
+private:
+    glm::vec3 top_, bottom_;
+};
 
 /// Splits the image into 16x16 tiles for parallel rendering.
 constexpr int kTile = 16;

@@ -94,5 +94,23 @@ expect_exit 1 "absurd resolution" "$bin" mesh --shape "sphere(r=1)" --resolution
 grep -q "would need about" "$tmp/err" && ok || bad "absurd request names the memory it would need"
 [ ! -e "$tmp/e.ply" ] && [ ! -e "$tmp/e.png" ] && ok || bad "no output after field errors"
 
+# render: the issue's command lines, on the bundled scene, grid and a mesh.
+expect_exit 0 "render showcase (Embree)" "$bin" render "$src/examples/showcase.isf" --size 160x120 --resolution 128 -o "$tmp/showcase.png"
+grep -q "Embree" "$tmp/out" && grep -q "Mrays/s" "$tmp/out" && ok || bad "render prints a summary"
+expect_exit 0 "render showcase (march)" "$bin" render "$src/examples/showcase.isf" --method march --size 96x72 -o "$tmp/showcase_m.png"
+expect_exit 0 "render a grid to EXR" "$bin" render "$src/data/sphere.vdb" --iso 0 --size 192x108 --spp 4 -o "$tmp/s.exr"
+expect_exit 0 "render a mesh" "$bin" render "$tmp/sphere.ply" --camera-auto -o "$tmp/mesh.png" --size 64x64
+expect_exit 0 "render AOVs" "$bin" render "$src/examples/bracket.isf" --aov depth,normal,id --size 64x48 -o "$tmp/frame.exr"
+chans=$(oiiotool --info -v "$tmp/frame.exr" 2>/dev/null | grep "channel list")
+for c in R G B A Z N.x N.y N.z id; do grep -qw -- "$c" <<<"$chans" || { bad "EXR lacks channel $c ($chans)"; break; }; done && ok
+expect_exit 0 "render translucent iso layers" "$bin" render "$src/data/sphere.vdb" --iso 0:skin:0.35 --iso -0.1:ivory --size 64x64 -o "$tmp/layers.png"
+expect_exit 2 "AOVs need EXR" "$bin" render "$src/data/sphere.vdb" --aov depth -o "$tmp/r.png"
+expect_exit 2 "bad --size" "$bin" render "$src/data/sphere.vdb" --size 10by10 -o "$tmp/r.png"
+expect_exit 1 "absurd --size" "$bin" render "$src/data/sphere.vdb" --size 100000x100000 -o "$tmp/r.png"
+expect_exit 2 "bad --iso colour" "$bin" render "$src/data/sphere.vdb" --iso 0:nocolour -o "$tmp/r.png"
+[ ! -e "$tmp/r.png" ] && ok || bad "no image after render errors"
+expect_exit 0 "render --quiet prints nothing" "$bin" --quiet render --shape "torus(R=1, r=0.3)" --size 32x32 -o "$tmp/q.png"
+[ ! -s "$tmp/out" ] && ok || bad "--quiet render is silent"
+
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

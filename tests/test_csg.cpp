@@ -257,11 +257,11 @@ TEST(Csg, PolyhedronSignIgnoresFaceOrientationAndSelfIntersection) {
 TEST(Csg, BatchValuesOfNestedTransformsMatchPointValues) {
     // Regression: nested transforms shared one scratch buffer, so a boolean's second child under a
     // transform read points its first child had already moved (the showcase's tower came out blocky).
-    auto inner = csg::makeDifference(
-        {implicit::makeTranslated(implicit::makeSphere(1.f), glm::vec3(0, 0, 2)),
-         implicit::makeTransformed(implicit::makeBox(glm::vec3(1.f)),
-                                   glm::mat4(glm::vec4(0.5f, 0, 0, 0), glm::vec4(0, 0.5f, 0, 0),
-                                             glm::vec4(0, 0, 1, 0), glm::vec4(0.3f, 0, 2, 1)))});
+    auto inner =
+        csg::makeDifference({implicit::makeTranslated(implicit::makeSphere(1.f), glm::vec3(0, 0, 2)),
+                             implicit::makeTransformed(implicit::makeBox(glm::vec3(1.f)),
+                                                       glm::mat4(glm::vec4(0.5f, 0, 0, 0), glm::vec4(0, 0.5f, 0, 0),
+                                                                 glm::vec4(0, 0, 1, 0), glm::vec4(0.3f, 0, 2, 1)))});
     auto f = implicit::makeTranslated(inner, glm::vec3(4.4f, 2.2f, 0.4f));
     std::vector<glm::vec3> p;
     for (int i = 0; i < 300; ++i) p.emplace_back(4.4f + 0.01f * i - 1.5f, 2.2f + 0.003f * i, 2.4f - 0.005f * i);
