@@ -194,8 +194,127 @@ Frame renderMeshes(const std::vector<MeshObject>& objects, const Look& look, con
         out.color = acc + transmit * background.at(py, o.height);
         return out;
     };
+    // Opaque first hits go through Embree's 16-wide packets (primary rays of a 4x4 pixel block, then
+    // one shadow packet per light); lanes whose first hit is translucent take the one-ray path above.
+    auto traceBlock = [&](const detail::Ray* rays, int n, const std::size_t* pix, std::size_t s, const float* py,
+                          detail::SampleResult* out) {
+        alignas(64) int valid[16];
+        alignas(64) RTCRayHit16 rh;
+        for (int k = 0; k < 16; ++k) {
+            const detail::Ray& r = rays[k < n ? k : 0];
+            valid[k] = k < n ? -1 : 0;
+            rh.ray.org_x[k] = r.origin.x;
+            rh.ray.org_y[k] = r.origin.y;
+            rh.ray.org_z[k] = r.origin.z;
+            rh.ray.dir_x[k] = r.dir.x;
+            rh.ray.dir_y[k] = r.dir.y;
+            rh.ray.dir_z[k] = r.dir.z;
+            rh.ray.tnear[k] = 0.f;
+            rh.ray.tfar[k] = kInf;
+            rh.ray.mask[k] = 0xFFFFFFFFu;
+            rh.ray.flags[k] = 0;
+            rh.ray.time[k] = 0.f;
+            rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+            rh.hit.instID[0][k] = RTC_INVALID_GEOMETRY_ID;
+        }
+        RTCIntersectContext ctx;
+        rtcInitIntersectContext(&ctx);
+        ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+        rtcIntersect16(valid, all.get(), &ctx, &rh);
+        detail::Surface surf[16];
+        glm::vec3 origin[16];
+        bool opaqueHit[16] = {};
+        for (int k = 0; k < n; ++k) {
+            const unsigned g = rh.hit.geomID[k];
+            if (g == RTC_INVALID_GEOMETRY_ID) {
+                out[k].color = background.at(py[k], o.height);
+                continue;
+            }
+            const ObjectData& od = data[g];
+            if (od.material.color.a < 1.f) {
+                out[k] = trace(rays[k], pix[k], s, py[k]);
+                continue;
+            }
+            const glm::uvec3 tri = od.mesh->triangles[rh.hit.primID[k]];
+            const float u = rh.hit.u[k], v = rh.hit.v[k], w = 1.f - u - v, t = rh.ray.tfar[k];
+            detail::Surface& sf = surf[k];
+            sf.position = rays[k].origin + t * rays[k].dir;
+            glm::vec3 nrm = w * od.normals[tri.x] + u * od.normals[tri.y] + v * od.normals[tri.z];
+            const float nl = glm::length(nrm);
+            nrm = nl > 0 ? nrm / nl : glm::normalize(glm::vec3(rh.hit.Ng_x[k], rh.hit.Ng_y[k], rh.hit.Ng_z[k]));
+            if (glm::dot(nrm, rays[k].dir) > 0) nrm = -nrm;
+            sf.normal = nrm;
+            sf.albedo =
+                od.vertexColors
+                    ? srgbToLinear(w * od.mesh->colors[tri.x] + u * od.mesh->colors[tri.y] + v * od.mesh->colors[tri.z])
+                    : od.albedo;
+            sf.opacity = 1.f;
+            sf.diffuse = od.material.diffuse;
+            sf.specular = od.material.specular;
+            sf.shininess = od.material.shininess;
+            origin[k] = sf.position + nrm * (eps + od.offset + 1e-5f * t);
+            opaqueHit[k] = true;
+            out[k].hit = true;
+            out[k].depth = t;
+            out[k].normal = nrm;
+            out[k].id = float(g + 1);
+        }
+        // Shadow packets: bit k of visible[l] set when light l reaches lane k.
+        std::uint32_t visibleMask[8] = {};
+        const std::size_t packetLights = std::min<std::size_t>(lights.size(), 8);
+        for (std::size_t li = 0; li < packetLights; ++li) {
+            if (!o.shadows) {
+                visibleMask[li] = 0xFFFFu;
+                continue;
+            }
+            alignas(64) int sv[16];
+            alignas(64) RTCRay16 sr;
+            bool any = false;
+            for (int k = 0; k < 16; ++k) {
+                sv[k] = 0;
+                const Light& l = lights[li];
+                const glm::vec3 L =
+                    opaqueHit[k] ? (l.point ? glm::normalize(l.vector - surf[k].position) : -glm::normalize(l.vector))
+                                 : glm::vec3(0, 0, 1);
+                if (opaqueHit[k] && glm::dot(surf[k].normal, L) > 0.f) {
+                    sv[k] = -1;
+                    any = true;
+                }
+                const glm::vec3 org = opaqueHit[k] ? origin[k] : glm::vec3(0.f);
+                sr.org_x[k] = org.x;
+                sr.org_y[k] = org.y;
+                sr.org_z[k] = org.z;
+                sr.dir_x[k] = L.x;
+                sr.dir_y[k] = L.y;
+                sr.dir_z[k] = L.z;
+                sr.tnear[k] = 0.f;
+                sr.tfar[k] = l.point && opaqueHit[k] ? glm::length(l.vector - org) : kInf;
+                sr.mask[k] = 0xFFFFFFFFu;
+                sr.flags[k] = 0;
+                sr.time[k] = 0.f;
+            }
+            if (!any) continue;
+            RTCIntersectContext sctx;
+            rtcInitIntersectContext(&sctx);
+            rtcOccluded16(sv, shadowScene, &sctx, &sr);
+            for (int k = 0; k < 16; ++k)
+                if (sv[k] && sr.tfar[k] >= 0.f) visibleMask[li] |= 1u << k;
+        }
+        for (int k = 0; k < n; ++k) {
+            if (!opaqueHit[k]) continue;
+            const float ao = detail::ambientOcclusion(
+                surf[k].normal, o.aoSamples, static_cast<std::uint32_t>(pix[k] * 64u + s * 16u),
+                [&](const glm::vec3& d) { return !occluded(origin[k], d, aoReach); });
+            auto visible = [&](std::size_t li, const glm::vec3& L) {
+                if (li < packetLights) return ((visibleMask[li] >> k) & 1u) != 0;
+                return !o.shadows ||
+                       !occluded(origin[k], L, lights[li].point ? glm::length(lights[li].vector - origin[k]) : kInf);
+            };
+            out[k].color = detail::shade(surf[k], rays[k].dir, lights, look.ambient, ao, visible);
+        }
+    };
     std::uint64_t hitPixels = 0;
-    Frame f = detail::renderTiles(look, o, trace, hitPixels);
+    Frame f = detail::renderBlocks(look, o, traceBlock, hitPixels);
     if (stats) {
         stats->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         stats->setupSeconds = setup;

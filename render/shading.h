@@ -133,11 +133,13 @@ struct SampleResult {
     float id = 0.f;
 };
 
-/// The tile loop both renderers share: TBB over 16x16 tiles, the sample pattern per pixel, the
-/// AOVs of the first sample, progress per tile. `trace(ray, pixelIndex, sampleIndex, yPixel)` does
-/// the work. Every pixel is computed alone, so the frame does not depend on the thread count.
-template <class Trace>
-Frame renderTiles(const Look& look, const RenderOptions& o, Trace&& trace, std::uint64_t& hitPixels) {
+/// The tile loop all renderers share: TBB over 16x16 tiles, each cut into 4x4 blocks; per block and
+/// sample index, `traceBlock(rays, count, pixelIndices, sampleIndex, yPixels, results)` traces up to
+/// 16 camera samples at once (Embree packets), filling `results`. AOVs come from the first sample,
+/// progress is reported per tile. Every pixel is computed alone, so the frame does not depend on the
+/// thread count.
+template <class TraceBlock>
+Frame renderBlocks(const Look& look, const RenderOptions& o, TraceBlock&& traceBlock, std::uint64_t& hitPixels) {
     Frame f;
     f.width = o.width;
     f.height = o.height;
@@ -153,28 +155,48 @@ Frame renderTiles(const Look& look, const RenderOptions& o, Trace&& trace, std::
     if (o.progress) o.progress->begin("rendering");
     tbb::parallel_for(tbb::blocked_range<int>(0, tilesX * tilesY, 1), [&](const tbb::blocked_range<int>& range) {
         std::uint64_t localHits = 0;
+        Ray blockRays[16];
+        std::size_t blockPix[16];
+        float blockY[16];
+        SampleResult results[16];
+        glm::vec3 sum[16];
+        float coverage[16];
         for (int tile = range.begin(); tile != range.end(); ++tile) {
-            const int x0 = (tile % tilesX) * kTile, y0 = (tile / tilesX) * kTile;
-            for (int y = y0; y < std::min(y0 + kTile, o.height); ++y)
-                for (int x = x0; x < std::min(x0 + kTile, o.width); ++x) {
-                    const std::size_t pix =
-                        static_cast<std::size_t>(y) * static_cast<std::size_t>(o.width) + static_cast<std::size_t>(x);
-                    glm::vec3 sum(0.f);
-                    float coverage = 0.f;
+            const int tx = (tile % tilesX) * kTile, ty = (tile / tilesX) * kTile;
+            for (int by = ty; by < std::min(ty + kTile, o.height); by += 4)
+                for (int bx = tx; bx < std::min(tx + kTile, o.width); bx += 4) {
+                    int n = 0;
+                    for (int y = by; y < std::min(by + 4, o.height); ++y)
+                        for (int x = bx; x < std::min(bx + 4, o.width); ++x) {
+                            blockPix[n] = static_cast<std::size_t>(y) * static_cast<std::size_t>(o.width) +
+                                          static_cast<std::size_t>(x);
+                            sum[n] = glm::vec3(0.f);
+                            coverage[n] = 0.f;
+                            ++n;
+                        }
                     for (std::size_t s = 0; s < pattern.size(); ++s) {
-                        const float py = float(y) + pattern[s].y;
-                        const SampleResult r = trace(rays(float(x) + pattern[s].x, py), pix, s, py);
-                        sum += r.color;
-                        coverage += r.hit ? 1.f : 0.f;
-                        if (s == 0 && r.hit) {
-                            if (o.depth) f.depth[pix] = r.depth;
-                            if (o.normal) f.normal[pix] = r.normal;
-                            if (o.objectId) f.objectId[pix] = r.id;
+                        for (int k = 0; k < n; ++k) {
+                            const float x = float(blockPix[k] % static_cast<std::size_t>(o.width)) + pattern[s].x;
+                            blockY[k] = float(blockPix[k] / static_cast<std::size_t>(o.width)) + pattern[s].y;
+                            blockRays[k] = rays(x, blockY[k]);
+                            results[k] = SampleResult{};
+                        }
+                        traceBlock(blockRays, n, blockPix, s, blockY, results);
+                        for (int k = 0; k < n; ++k) {
+                            sum[k] += results[k].color;
+                            coverage[k] += results[k].hit ? 1.f : 0.f;
+                            if (s == 0 && results[k].hit) {
+                                if (o.depth) f.depth[blockPix[k]] = results[k].depth;
+                                if (o.normal) f.normal[blockPix[k]] = results[k].normal;
+                                if (o.objectId) f.objectId[blockPix[k]] = results[k].id;
+                            }
                         }
                     }
                     const float inv = 1.f / float(pattern.size());
-                    f.color[pix] = glm::vec4(sum * inv, coverage * inv);
-                    localHits += coverage > 0;
+                    for (int k = 0; k < n; ++k) {
+                        f.color[blockPix[k]] = glm::vec4(sum[k] * inv, coverage[k] * inv);
+                        localHits += coverage[k] > 0;
+                    }
                 }
             if (o.progress) o.progress->update(++tilesDone, static_cast<std::size_t>(tilesX * tilesY));
         }
@@ -183,6 +205,17 @@ Frame renderTiles(const Look& look, const RenderOptions& o, Trace&& trace, std::
     if (o.progress) o.progress->end();
     hitPixels = hits;
     return f;
+}
+
+/// renderBlocks with a tracer of one sample at a time: `trace(ray, pixelIndex, sampleIndex, yPixel)`.
+template <class Trace>
+Frame renderTiles(const Look& look, const RenderOptions& o, Trace&& trace, std::uint64_t& hitPixels) {
+    return renderBlocks(
+        look, o,
+        [&](const Ray* rays, int n, const std::size_t* pix, std::size_t s, const float* py, SampleResult* out) {
+            for (int k = 0; k < n; ++k) out[k] = trace(rays[k], pix[k], s, py[k]);
+        },
+        hitPixels);
 }
 
 /// Deterministic per-pixel random numbers (ambient occlusion).
