@@ -155,12 +155,18 @@ public:
         return best;
     }
 
-    /// Outward normal (world) at index position p: central differences of trilinear values half a
-    /// voxel either side, mapped to world space.
+    /// Outward normal (world) at index position p: the gradient of the trilinear interpolant of the
+    /// cell holding p (one fetch of its eight corners), mapped to world space.
     glm::vec3 normal(Accessor& acc, const openvdb::Vec3d& p) const {
-        const openvdb::Vec3d g(sample(acc, p + openvdb::Vec3d(0.5, 0, 0)) - sample(acc, p - openvdb::Vec3d(0.5, 0, 0)),
-                               sample(acc, p + openvdb::Vec3d(0, 0.5, 0)) - sample(acc, p - openvdb::Vec3d(0, 0.5, 0)),
-                               sample(acc, p + openvdb::Vec3d(0, 0, 0.5)) - sample(acc, p - openvdb::Vec3d(0, 0, 0.5)));
+        float c[8];
+        const openvdb::Vec3d f = corners(acc, p, c);
+        const double fx = f.x(), fy = f.y(), fz = f.z();
+        auto lerp = [](double a, double b, double t) { return a + (b - a) * t; };
+        // d/dx: difference of the x = 1 and x = 0 faces, bilinear in (y, z); likewise for y and z.
+        const double gx = lerp(lerp(c[4] - c[0], c[6] - c[2], fy), lerp(c[5] - c[1], c[7] - c[3], fy), fz);
+        const double gy = lerp(lerp(c[2] - c[0], c[6] - c[4], fx), lerp(c[3] - c[1], c[7] - c[5], fx), fz);
+        const double gz = lerp(lerp(c[1] - c[0], c[5] - c[4], fx), lerp(c[3] - c[2], c[7] - c[6], fx), fy);
+        const openvdb::Vec3d g(gx, gy, gz);
         openvdb::Vec3d w = affine_ ? openvdb::Vec3d(inv_[0][0] * g.x() + inv_[0][1] * g.y() + inv_[0][2] * g.z(),
                                                     inv_[1][0] * g.x() + inv_[1][1] * g.y() + inv_[1][2] * g.z(),
                                                     inv_[2][0] * g.x() + inv_[2][1] * g.y() + inv_[2][2] * g.z())
