@@ -12,8 +12,8 @@ namespace isoforge::mesh {
 /// Triangles are counter-clockwise seen from outside, so that (b - a) x (c - a) points outward.
 struct TriMesh {
     std::vector<glm::vec3> positions;
-    std::vector<glm::vec3> normals;     ///< empty, or one unit normal per position
-    std::vector<glm::vec3> colors;      ///< empty, or one RGB colour in [0, 1] per position, sRGB-encoded as files store it
+    std::vector<glm::vec3> normals;  ///< empty, or one unit normal per position
+    std::vector<glm::vec3> colors;  ///< empty, or one RGB colour in [0, 1] per position, sRGB-encoded as files store it
     std::vector<glm::uvec3> triangles;  ///< indices into positions
 
     std::size_t vertexCount() const { return positions.size(); }

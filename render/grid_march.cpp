@@ -127,6 +127,31 @@ public:
         return std::nullopt;
     }
 
+    /// The first crossing in [ta, tb] by plain stepping (no tree traversal): for rays started next to
+    /// the surface by the depth pre-pass. The side at ta must be the outside of every layer.
+    std::optional<Crossing> near(Accessor& acc, const IndexRay& ray, double ta, double tb, bool& startInside) const {
+        startInside = false;
+        double t = ta, prevT = ta;
+        unsigned prevMask = 0;
+        bool havePrev = false;
+        while (t <= tb) {
+            const float v = sample(acc, ray(t));
+            const unsigned mask = insideMask(v);
+            if (!havePrev && mask != 0) {  // not outside here: let the full path decide, from the eye
+                startInside = true;
+                return std::nullopt;
+            }
+            if (havePrev && mask != prevMask) return refine(acc, ray, prevT, t, prevMask, mask);
+            havePrev = true;
+            prevT = t;
+            prevMask = mask;
+            float near = kInf;
+            for (const IsoLayer& l : layers_) near = std::min(near, std::abs(v - l.iso));
+            t += std::max(0.9 * double(near) / voxel_, 0.5);
+        }
+        return std::nullopt;
+    }
+
     /// Bisection on the first layer whose side changes between ta (mask ma) and tb (mask mb).
     Crossing refine(Accessor& acc, const IndexRay& ray, double ta, double tb, unsigned ma, unsigned mb) const {
         Crossing best{tb, 0, false};
@@ -231,6 +256,65 @@ Frame marchGrid(const openvdb::FloatGrid& grid, const std::vector<IsoLayer>& lay
         }
         return false;
     };
+    // Depth pre-pass for level sets seen from outside: the nearest view depth, per pixel, of the leaf
+    // nodes whose values come within 1.5 voxels of an iso-value (where every crossing lies). A ray's
+    // first crossing is inside one of the boxes its pixel is covered by, so marching may start at that
+    // depth, and pixels no box covers see the background. Rays that find nothing near their start fall
+    // back to the full traversal.
+    const detail::RayGenerator gen(look.camera, o.width, o.height);
+    std::vector<float> nearDepth;
+    {
+        const openvdb::Vec3d eyeIndex =
+            xform.worldToIndex(openvdb::Vec3d(look.camera.eye.x, look.camera.eye.y, look.camera.eye.z));
+        openvdb::CoordBBox grown = grid.evalActiveVoxelBoundingBox();
+        grown.expand(2);
+        const bool eyeOutside = !grown.isInside(openvdb::Coord::floor(eyeIndex));
+        if (grid.getGridClass() == openvdb::GRID_LEVEL_SET && grid.tree().activeTileCount() == 0 && eyeOutside &&
+            xform.isLinear()) {
+            nearDepth.assign(static_cast<std::size_t>(o.width) * static_cast<std::size_t>(o.height),
+                             std::numeric_limits<float>::infinity());
+            const float reach = float(1.5 * voxel);
+            bool ok = true;
+            for (auto leaf = grid.tree().cbeginLeaf(); leaf && ok; ++leaf) {
+                float lo = kInf, hi = -kInf;
+                for (auto v = leaf->cbeginValueAll(); v; ++v) {
+                    lo = std::min(lo, *v);
+                    hi = std::max(hi, *v);
+                }
+                bool surface = false;
+                for (const IsoLayer& l : layers) surface = surface || (lo - l.iso < reach && hi - l.iso > -reach);
+                if (!surface) continue;
+                const openvdb::Coord org = leaf->origin();
+                float x0 = kInf, y0 = kInf, x1 = -kInf, y1 = -kInf, dmin = kInf;
+                for (int c = 0; c < 8; ++c) {
+                    const openvdb::Vec3d ic(org.x() + (c & 1 ? 9.0 : -1.0), org.y() + (c & 2 ? 9.0 : -1.0),
+                                            org.z() + (c & 4 ? 9.0 : -1.0));
+                    const openvdb::Vec3d w = xform.indexToWorld(ic);
+                    float px, py, d;
+                    if (!gen.project(glm::vec3(float(w.x()), float(w.y()), float(w.z())), px, py, d)) {
+                        ok = false;
+                        break;
+                    }
+                    x0 = std::min(x0, px);
+                    x1 = std::max(x1, px);
+                    y0 = std::min(y0, py);
+                    y1 = std::max(y1, py);
+                    dmin = std::min(dmin, d);
+                }
+                if (!ok) break;
+                // One pixel of margin: samples are jittered inside their pixel.
+                const int ix0 = std::max(0, int(std::floor(x0)) - 1), ix1 = std::min(o.width - 1, int(x1) + 1);
+                const int iy0 = std::max(0, int(std::floor(y0)) - 1), iy1 = std::min(o.height - 1, int(y1) + 1);
+                for (int y = iy0; y <= iy1; ++y)
+                    for (int x = ix0; x <= ix1; ++x) {
+                        float& z = nearDepth[static_cast<std::size_t>(y) * static_cast<std::size_t>(o.width) +
+                                             static_cast<std::size_t>(x)];
+                        z = std::min(z, dmin);
+                    }
+            }
+            if (!ok) nearDepth.clear();
+        }
+    }
     auto trace = [&](const detail::Ray& ray, std::size_t pix, std::size_t s, float py) {
         ThreadState& st = states.local();
         detail::SampleResult out;
@@ -238,8 +322,21 @@ Frame marchGrid(const openvdb::FloatGrid& grid, const std::vector<IsoLayer>& lay
         float transmit = 1.f;
         const IndexRay iray = toIndexRay(ray.origin, ray.dir);
         double t = 0;
+        std::optional<Crossing> early;
+        if (!nearDepth.empty()) {
+            const float d = nearDepth[pix];
+            if (!std::isfinite(d)) {
+                out.color = background.at(py, o.height);
+                return out;
+            }
+            // Start at the box depth (a little before), look for a crossing within four leaves.
+            t = std::max(0.0, double(d) / double(glm::dot(ray.dir, gen.forward())) / voxel - 1.0);
+            bool startInside = false;
+            early = marcher.near(st.acc, iray, t, t + 32.0, startInside);
+            if (startInside) t = 0;
+        }
         for (int layer = 0; layer < 16 && transmit > 0.004f; ++layer) {
-            const auto c = marcher.first(st, iray, t, std::numeric_limits<double>::max());
+            const auto c = layer == 0 && early ? early : marcher.first(st, iray, t, std::numeric_limits<double>::max());
             if (!c) break;
             const openvdb::Vec3d ip = iray(c->t);
             const openvdb::Vec3d wp = xform.indexToWorld(ip);

@@ -52,6 +52,18 @@ public:
         return (c_.orthographic ? 2.f * half_ : 2.f * half_ * std::max(t, 1e-6f)) / float(h_);
     }
     const glm::vec3& forward() const { return f_; }
+    /// Pixel position (x, y) and view depth (along forward()) of a world point; false when the
+    /// point is not in front of a perspective camera.
+    bool project(const glm::vec3& p, float& x, float& y, float& depth) const {
+        const glm::vec3 d = p - c_.eye;
+        depth = glm::dot(d, f_);
+        if (!c_.orthographic && depth <= 1e-6f) return false;
+        const float scale = c_.orthographic ? 1.f : depth;
+        const float sx = glm::dot(d, r_) / (scale * half_ * aspect_), sy = glm::dot(d, u_) / (scale * half_);
+        x = 0.5f * (sx + 1.f) * float(w_);
+        y = 0.5f * (1.f - sy) * float(h_);
+        return true;
+    }
 
 private:
     Camera c_;
