@@ -132,6 +132,7 @@ public:
     std::optional<Crossing> near(Accessor& acc, const IndexRay& ray, double ta, double tb, bool& startInside) const {
         startInside = false;
         double t = ta, prevT = ta;
+        float prevV = 0.f;
         unsigned prevMask = 0;
         bool havePrev = false;
         while (t <= tb) {
@@ -141,9 +142,17 @@ public:
                 startInside = true;
                 return std::nullopt;
             }
-            if (havePrev && mask != prevMask) return refine(acc, ray, prevT, t, prevMask, mask);
+            if (havePrev && mask != prevMask) {
+                if (layers_.size() > 1 || t - prevT > 1.0) return refine(acc, ray, prevT, t, prevMask, mask);
+                // One level-set layer bracketed within a voxel: its values are distances, near-linear
+                // along the ray, so the two samples' interpolation is the crossing (no more samples).
+                const double x =
+                    prevT + (t - prevT) * std::clamp(double(prevV - layers_[0].iso) / double(prevV - v), 0.0, 1.0);
+                return Crossing{std::max(prevT, x - 1e-3), 0, true};
+            }
             havePrev = true;
             prevT = t;
+            prevV = v;
             prevMask = mask;
             float near = kInf;
             for (const IsoLayer& l : layers_) near = std::min(near, std::abs(v - l.iso));

@@ -173,14 +173,14 @@ Frame marchField(const implicit::FieldPtr& field, const implicit::Box3& region, 
     auto trace = [&](const detail::Ray& ray, std::size_t pix, std::size_t s, float py) {
         const std::size_t px = pix % std::size_t(o.width), py0 = pix / std::size_t(o.width);
         const implicit::FieldPtr& tf = tileField[(py0 / detail::kTile) * std::size_t(tilesX) + px / detail::kTile];
-        const Marcher march(*tf, rays, eps);
+        const Marcher tileMarch(*tf, rays, eps);
         detail::SampleResult out;
         glm::vec3 acc(0.f);
         float transmit = 1.f;
         const auto span = clipRay(ray, region);
         float t = span ? span->first : 0.f;
         for (int layer = 0; span && layer < 16 && transmit > 0.004f; ++layer) {
-            const auto hit = march.first(ray, t, span->second);
+            const auto hit = tileMarch.first(ray, t, span->second);
             if (!hit) break;
             detail::Surface surf;
             surf.position = ray.origin + *hit * ray.dir;

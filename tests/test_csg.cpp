@@ -204,10 +204,10 @@ TEST(Scene, MeshAndVolumeStatementsReadRealFiles) {
     EXPECT_NEAR(r.volume, 53.48682, 0.01 * 53.48682);
     // A level-set .vdb cut in half by a box: half a sphere of radius 3.
     const auto sphere = test::sourceDir() / "data/sphere.vdb";
-    const auto half = csg::parseScene("intersection() { volume(\"" + sphere.string() +
-                                          "\", iso = 0); translate([0, 0, -5]) cube(10, center = true); }",
-                                      "h.isf");
-    EXPECT_NEAR(meshScene(half.root, 0.03f).volume, 2.0 / 3.0 * M_PI * 27.0, 0.01 * 56.55);
+    const auto halfBall = csg::parseScene("intersection() { volume(\"" + sphere.string() +
+                                              "\", iso = 0); translate([0, 0, -5]) cube(10, center = true); }",
+                                          "h.isf");
+    EXPECT_NEAR(meshScene(halfBall.root, 0.03f).volume, 2.0 / 3.0 * M_PI * 27.0, 0.01 * 56.55);
     // The open bunny is accepted with a warning on its line.
     const auto bunny =
         csg::parseScene("\nmesh(\"" + (test::sharedData() / "meshes/bunny/bunny.ply").string() + "\");", "b.isf");

@@ -86,10 +86,11 @@ TEST(Renderers, SphereSilhouetteIsTheAnalyticDisc) {
     const mesh::TriMesh m = meshOf(sphere, 0.01f);
     const render::Frame cast = render::renderMeshes({{&m, {}, false}}, look, o);
     render::Frame disc = marched;
-    const float half = 0.5f * look.camera.orthoHeight;
+    const float halfHeight = 0.5f * look.camera.orthoHeight;
     for (int y = 0; y < o.height; ++y)
         for (int x = 0; x < o.width; ++x) {
-            const float u = ((x + 0.5f) / o.width * 2.f - 1.f) * half, v = ((y + 0.5f) / o.height * 2.f - 1.f) * half;
+            const float u = ((x + 0.5f) / o.width * 2.f - 1.f) * halfHeight,
+                        v = ((y + 0.5f) / o.height * 2.f - 1.f) * halfHeight;
             disc.color[static_cast<std::size_t>(y * o.width + x)].a = u * u + v * v < 1.f ? 1.f : 0.f;
         }
     EXPECT_GE(iou(marched, disc), 0.995);
