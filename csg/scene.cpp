@@ -1212,7 +1212,15 @@ private:
             auto kids = children(s, scope, depth);
             if (kids.empty()) return nullptr;
             const std::string base = smooth ? n.substr(7) : n;
-            if (base == "intersection") return makeIntersection(std::move(kids), k);
+            if (base == "intersection") {
+                // A child whose bounds miss the others' (a shape outside its clipping box): nothing is left.
+                Box3 common = Box3::everything();
+                for (const auto& c : kids) common = common.intersect(c->bounds());
+                if (kids.size() > 1 && common.isEmpty())
+                    d_.warn(s.line, s.col,
+                            "this intersection is empty: a child lies outside the others (outside its clipping box?)");
+                return makeIntersection(std::move(kids), k);
+            }
             if (base == "difference") {
                 if (kids.size() > 1) {
                     const Box3 first = kids[0]->bounds();

@@ -114,6 +114,11 @@ TEST(Scene, LanguageConstructsAndColours) {
     const auto w = csg::parseScene("\ndifference() { cube(1); translate([9, 0, 0]) cube(1); }", "w.isf");
     ASSERT_EQ(w.warnings.size(), 1u);
     EXPECT_EQ(w.warnings[0].loc.line, 2);
+    // So does an intersection whose child lies outside the clipping box.
+    const auto clip = csg::parseScene("\n\nintersection() { cube(2); translate([5, 0, 0]) sphere(1); }", "c.isf");
+    ASSERT_EQ(clip.warnings.size(), 1u);
+    EXPECT_EQ(clip.warnings[0].loc.line, 3);
+    EXPECT_NE(clip.warnings[0].message.find("intersection is empty"), std::string::npos);
 }
 
 TEST(Scene, ErrorsNameFileLineColumnWithACaretAndSeveralAtOnce) {
