@@ -5,6 +5,7 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <concepts>
 #include <cstdint>
 #include <cstring>
 #include <fstream>
@@ -22,6 +23,16 @@
 namespace isoforge::mesh {
 
 namespace {
+
+/// Readers name what they read in their errors; the name is built only when an error happens
+/// (a PLY body has millions of values): a string, or a callable that makes one.
+inline std::string describe(const char* what) {
+    return what;
+}
+template <class F>
+requires std::invocable<const F&> std::string describe(const F& what) {
+    return what();
+}
 
 std::string lowerExtension(const std::filesystem::path& p) {
     std::string e = p.extension().string();
@@ -78,17 +89,21 @@ public:
     }
     template <class T>
     T number(const char* what) {
+        return number<T>([what] { return std::string(what); });
+    }
+    template <class T, class What>
+    T number(const What& what) {
         skipSpaces();
-        if (atEnd() || text_[pos_] == '\n') fail(std::string("expected ") + what + ", found end of line");
+        if (atEnd() || text_[pos_] == '\n') fail("expected " + describe(what) + ", found end of line");
         const char* b = text_.data() + pos_;
         const char* e = text_.data() + text_.size();
         if (*b == '+') ++b;
         T v{};
         auto [p, ec] = std::from_chars(b, e, v);
         if (ec != std::errc() || (p < e && !std::isspace(static_cast<unsigned char>(*p)) && *p != '/'))
-            fail(std::string("expected ") + what + ", found '" + std::string(word()) + "'");
+            fail("expected " + describe(what) + ", found '" + std::string(word()) + "'");
         if constexpr (std::is_floating_point_v<T>)
-            if (!std::isfinite(v)) fail(std::string("expected a finite ") + what);
+            if (!std::isfinite(v)) fail("expected a finite " + describe(what));
         pos_ = static_cast<std::size_t>(p - text_.data());
         return v;
     }
@@ -165,10 +180,11 @@ public:
           pos_(pos),
           swap_(bigEndian != (std::endian::native == std::endian::big)),
           file_(std::move(file)) {}
-    double read(PlyType t, const char* what) {
+    template <class What>
+    double read(PlyType t, const What& what) {
         std::size_t n = plySize(t);
         if (pos_ + n > data_.size())
-            throw IoError(file_ + ": byte " + std::to_string(pos_) + ": file ends while reading " + what +
+            throw IoError(file_ + ": byte " + std::to_string(pos_) + ": file ends while reading " + describe(what) +
                           " (truncated?)");
         unsigned char b[8];
         std::memcpy(b, data_.data() + pos_, n);
@@ -357,11 +373,11 @@ TriMesh readPly(const std::filesystem::path& path, const std::string& data) {
             if (format == Format::Ascii) text.skipWhitespace();
             for (int k = 0; k < static_cast<int>(e.properties.size()); ++k) {
                 const PlyProperty& p = e.properties[k];
-                const std::string what = e.name + " " + std::to_string(i) + " property '" + p.name + "'";
+                auto what = [&] { return e.name + " " + std::to_string(i) + " property '" + p.name + "'"; };
                 auto readValue = [&](PlyType t) -> double {
-                    if (format != Format::Ascii) return bin.read(t, what.c_str());
-                    if (text.atEnd()) text.fail("file ends while reading " + what + " (truncated?)");
-                    return text.number<double>(what.c_str());  // one element per line
+                    if (format != Format::Ascii) return bin.read(t, what);
+                    if (text.atEnd()) text.fail("file ends while reading " + what() + " (truncated?)");
+                    return text.number<double>(what);  // one element per line
                 };
                 if (!p.isList) {
                     double v = readValue(p.type);
@@ -369,7 +385,7 @@ TriMesh readPly(const std::filesystem::path& path, const std::string& data) {
                     continue;
                 }
                 double countValue = readValue(p.countType);
-                if (countValue < 0) throw IoError(file + ": negative list length in " + what);
+                if (countValue < 0) throw IoError(file + ": negative list length in " + what());
                 auto count = static_cast<std::uint64_t>(countValue);
                 if (k == iface) face.clear();
                 for (std::uint64_t j = 0; j < count; ++j) {
