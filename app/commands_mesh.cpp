@@ -1,9 +1,10 @@
-// isoforge check: commands on mesh files.
+// isoforge check, primitive: commands on mesh files.
 #include <iostream>
 
 #include "app/commands.h"
 #include "mesh/check.h"
 #include "mesh/io.h"
+#include "mesh/primitives.h"
 
 namespace isoforge::app {
 
@@ -24,6 +25,37 @@ void addCheckCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                 allValid = allValid && r.isValidClosedSurface();
             }
             return (*strict && !allValid) ? 1 : 0;
+        };
+    });
+}
+
+void addPrimitiveCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
+    struct Args {
+        std::string name, output;
+        int resolution = 32;
+        bool ascii = false;
+    };
+    auto a = std::make_shared<Args>();
+    auto* cmd = app.add_subcommand(
+        "primitive",
+        "Write a closed, outward-oriented polygonal primitive: cube, cylinder, cone, sphere, icosphere, torus");
+    cmd->add_option("name", a->name, "cube, cylinder, cone, sphere (UV), icosphere, torus")
+        ->required()
+        ->check(CLI::IsMember(mesh::primitiveNames()));
+    cmd->add_option("--resolution", a->resolution,
+                    "Sides around the axis (cube: cells per edge; icosphere: subdivision levels 0-8); default 32");
+    cmd->add_option("-o,--output", a->output, "Mesh file: .ply, .obj or .stl")->required();
+    cmd->add_flag("--ascii", a->ascii, "ASCII PLY instead of binary");
+    cmd->callback([&c, &g, a] {
+        c.run = [&g, a] {
+            if (!mesh::isMeshPath(a->output))
+                throw CLI::ValidationError("--output", a->output + ": expected a .ply, .obj or .stl file name");
+            const mesh::TriMesh m = mesh::makePrimitive(a->name, a->resolution);
+            mesh::writeMesh(a->output, m, {a->ascii});
+            if (!g.quiet)
+                std::cout << a->name << " at resolution " << a->resolution << ": " << withCommas(m.vertexCount())
+                          << " vertices, " << withCommas(m.triangleCount()) << " triangles -> " << a->output << "\n";
+            return 0;
         };
     });
 }

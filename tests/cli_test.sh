@@ -112,5 +112,15 @@ expect_exit 2 "bad --iso colour" "$bin" render "$src/data/sphere.vdb" --iso 0:no
 expect_exit 0 "render --quiet prints nothing" "$bin" --quiet render --shape "torus(R=1, r=0.3)" --size 32x32 -o "$tmp/q.png"
 [ ! -s "$tmp/out" ] && ok || bad "--quiet render is silent"
 
+# primitive (issue #7's first command line)
+expect_exit 0 "primitive cone" "$bin" primitive cone --resolution 64 -o "$tmp/cone.ply"
+expect_exit 0 "primitive cone is closed" "$bin" check --strict "$tmp/cone.ply"
+for p in cube cylinder sphere icosphere torus; do
+    "$bin" --quiet primitive $p --resolution 4 -o "$tmp/p_$p.obj" && "$bin" check --strict "$tmp/p_$p.obj" >/dev/null && ok || bad "primitive $p closed"
+done
+expect_exit 2 "unknown primitive" "$bin" primitive teapot -o "$tmp/t.ply"
+expect_exit 1 "bad primitive resolution" "$bin" primitive cone --resolution 2 -o "$tmp/t.ply"
+[ ! -e "$tmp/t.ply" ] && ok || bad "no output after primitive errors"
+
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]
