@@ -24,6 +24,7 @@ void addInfoCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addCheckCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addPrimitiveCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
+void addStripsCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addSampleCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addSliceCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addShapesCommand(CLI::App& app, const GlobalOptions& g, Commands& c);

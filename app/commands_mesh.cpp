@@ -1,10 +1,12 @@
 // isoforge check, primitive: commands on mesh files.
+#include <cstdio>
 #include <iostream>
 
 #include "app/commands.h"
 #include "mesh/check.h"
 #include "mesh/io.h"
 #include "mesh/primitives.h"
+#include "mesh/strips.h"
 
 namespace isoforge::app {
 
@@ -56,6 +58,38 @@ void addPrimitiveCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                 std::cout << a->name << " at resolution " << a->resolution << ": " << withCommas(m.vertexCount())
                           << " vertices, " << withCommas(m.triangleCount()) << " triangles -> " << a->output << "\n";
             return 0;
+        };
+    });
+}
+
+void addStripsCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
+    struct Args {
+        std::string input, output;
+    };
+    auto a = std::make_shared<Args>();
+    auto* cmd = app.add_subcommand(
+        "strips",
+        "Turn a mesh into triangle strips: vertices sent per triangle before and after, checked by expanding back");
+    cmd->add_option("mesh", a->input, "Mesh file (.ply .obj .stl)")->required();
+    cmd->add_option("-o,--output", a->output, "Write positions and strips as text (.strips)");
+    cmd->callback([&c, &g, a] {
+        c.run = [&g, a] {
+            const mesh::TriMesh m = mesh::readMesh(a->input);
+            const mesh::Strips s = mesh::makeStrips(m);
+            const bool same = mesh::sameTriangles(mesh::expandStrips(s), m.triangles);
+            if (!a->output.empty()) mesh::writeStrips(a->output, m, s);
+            if (!g.quiet) {
+                char line[256];
+                std::snprintf(line, sizeof line,
+                              "%s triangles: 3.00 vertices per triangle as a list, %.3f in %s strips "
+                              "(%.1f triangles per strip); expanded back: %s",
+                              withCommas(m.triangleCount()).c_str(), s.verticesPerTriangle(),
+                              withCommas(s.stripCount).c_str(),
+                              s.stripCount ? double(m.triangleCount()) / double(s.stripCount) : 0.0,
+                              same ? "the same triangles" : "DIFFERENT");
+                std::cout << line << (a->output.empty() ? "" : " -> " + a->output) << "\n";
+            }
+            return same ? 0 : 1;
         };
     });
 }

@@ -50,6 +50,7 @@ int main(int argc, char** argv) {
     app::addMeshCommand(app, global, commands);
     app::addCheckCommand(app, global, commands);
     app::addPrimitiveCommand(app, global, commands);
+    app::addStripsCommand(app, global, commands);
     app::addSampleCommand(app, global, commands);
     app::addRenderCommand(app, global, commands);
     app::addSliceCommand(app, global, commands);

@@ -122,5 +122,11 @@ expect_exit 2 "unknown primitive" "$bin" primitive teapot -o "$tmp/t.ply"
 expect_exit 1 "bad primitive resolution" "$bin" primitive cone --resolution 2 -o "$tmp/t.ply"
 [ ! -e "$tmp/t.ply" ] && ok || bad "no output after primitive errors"
 
+# strips
+expect_exit 0 "strips" "$bin" strips "$tmp/cone.ply" -o "$tmp/cone.strips"
+grep -q "expanded back: the same triangles" "$tmp/out" && ok || bad "strips expand back"
+grep -q "^s " "$tmp/cone.strips" && ok || bad "strips file has strips"
+expect_exit 1 "strips of a missing file" "$bin" strips "$tmp/none.ply"
+
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]
