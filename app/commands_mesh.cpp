@@ -1,4 +1,4 @@
-// isoforge check, primitive: commands on mesh files.
+// isoforge check (and --repair), primitive, strips: commands on mesh files.
 #include <cstdio>
 #include <iostream>
 
@@ -6,27 +6,46 @@
 #include "mesh/check.h"
 #include "mesh/io.h"
 #include "mesh/primitives.h"
+#include "mesh/repair.h"
 #include "mesh/strips.h"
 
 namespace isoforge::app {
 
 void addCheckCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
-    auto files = std::make_shared<std::vector<std::string>>();
-    auto strict = std::make_shared<bool>(false);
+    struct Args {
+        std::vector<std::string> files;
+        bool strict = false, repair = false;
+        std::string output;
+    };
+    auto a = std::make_shared<Args>();
     auto* cmd = app.add_subcommand(
         "check", "Report whether meshes are watertight, manifold and oriented; genus, components, area, volume");
-    cmd->add_option("meshes", *files, "Mesh files (.ply .obj .stl, from any tool)")->required();
-    cmd->add_flag("--strict", *strict, "Exit with status 1 unless every mesh is a valid closed, oriented 2-manifold");
-    cmd->callback([&c, files, strict] {
-        c.run = [files, strict] {
+    cmd->add_option("meshes", a->files, "Mesh files (.ply .obj .stl, from any tool)")->required();
+    cmd->add_flag("--strict", a->strict, "Exit with status 1 unless every mesh is a valid closed, oriented 2-manifold");
+    cmd->add_flag("--repair", a->repair,
+                  "Drop degenerate and duplicate triangles, orient consistently and outward (cavities inward); "
+                  "write the result with -o");
+    cmd->add_option("-o,--output", a->output, "With --repair: the repaired mesh (.ply .obj .stl)");
+    cmd->callback([&c, &g, a] {
+        c.run = [&g, a] {
+            if (a->repair && (a->output.empty() || a->files.size() != 1))
+                throw CLI::ValidationError("--repair", "give one mesh and -o for the repaired one");
+            if (!a->output.empty() && !a->repair) throw CLI::ValidationError("-o", "-o goes with --repair");
+            if (a->repair && !mesh::isMeshPath(a->output))
+                throw CLI::ValidationError("-o", a->output + ": expected a .ply, .obj or .stl file name");
             bool allValid = true;
-            for (const std::string& f : *files) {
+            for (const std::string& f : a->files) {
                 mesh::TriMesh m = mesh::readMesh(f);
+                if (a->repair) {
+                    const mesh::RepairReport r = mesh::repair(m);
+                    if (!g.quiet) std::cout << f << ": repair\n" << r.toString();
+                    mesh::writeMesh(a->output, m);
+                }
                 mesh::MeshReport r = mesh::check(m);
-                std::cout << f << "\n" << r.toString();
+                if (!g.quiet || !a->repair) std::cout << (a->repair ? a->output : f) << "\n" << r.toString();
                 allValid = allValid && r.isValidClosedSurface();
             }
-            return (*strict && !allValid) ? 1 : 0;
+            return (a->strict && !allValid) ? 1 : 0;
         };
     });
 }

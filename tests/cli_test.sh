@@ -128,5 +128,17 @@ grep -q "expanded back: the same triangles" "$tmp/out" && ok || bad "strips expa
 grep -q "^s " "$tmp/cone.strips" && ok || bad "strips file has strips"
 expect_exit 1 "strips of a missing file" "$bin" strips "$tmp/none.ply"
 
+# check --repair: a mesh with every other triangle flipped comes back valid
+awk '/^f /{n++; if (n%2==0) {s="f"; for (i=NF; i>=2; i--) s=s" "$i; print s; next}} {print}' "$shared/meshes/cow/cow.obj" >"$tmp/flipped.obj" 2>/dev/null
+if [ -s "$tmp/flipped.obj" ]; then
+    expect_exit 0 "check --repair" "$bin" check "$tmp/flipped.obj" --repair -o "$tmp/fixed.ply"
+    grep -q "triangles flipped" "$tmp/out" && ok || bad "repair reports what it did"
+    "$bin" check "$tmp/flipped.obj" | grep -q "oriented        NO" && ok || bad "the flipped cow is misoriented"
+    "$bin" check "$tmp/fixed.ply" >"$tmp/fixed.txt"
+    grep -q "oriented        yes" "$tmp/fixed.txt" && grep -q "watertight      yes" "$tmp/fixed.txt" &&
+        grep -q "outward         yes" "$tmp/fixed.txt" && ok || bad "repaired cow is closed, oriented, outward"
+fi
+expect_exit 2 "--repair needs -o" "$bin" check "$tmp/cone.ply" --repair
+
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]
