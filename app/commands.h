@@ -26,6 +26,7 @@ void addCheckCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addPrimitiveCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addStripsCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addSampleCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
+void addVoxelizeCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addSliceCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addShapesCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addCheckSceneCommand(CLI::App& app, const GlobalOptions& g, Commands& c);

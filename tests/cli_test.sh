@@ -140,5 +140,18 @@ if [ -s "$tmp/flipped.obj" ]; then
 fi
 expect_exit 2 "--repair needs -o" "$bin" check "$tmp/cone.ply" --repair
 
+# voxelize: mesh -> level set -> mesh
+expect_exit 0 "voxelize a closed mesh" "$bin" voxelize "$tmp/cone.ply" --resolution 64 -o "$tmp/cone.vdb"
+grep -q "signed level set" "$tmp/out" && ok || bad "voxelize says signed"
+expect_exit 0 "mesh the voxelized cone" "$bin" mesh "$tmp/cone.vdb" -o "$tmp/cone_back.ply"
+expect_exit 0 "voxelized cone meshes closed" "$bin" check --strict "$tmp/cone_back.ply"
+if [ -f "$shared/meshes/bunny/bunny.ply" ]; then
+    expect_exit 0 "voxelize an open mesh" "$bin" voxelize "$shared/meshes/bunny/bunny.ply" --resolution 64 -o "$tmp/bunny.vdb"
+    grep -q "not closed" "$tmp/err" && ok || bad "open mesh gives a warning"
+fi
+expect_exit 1 "absurd voxel" "$bin" voxelize "$tmp/cone.ply" --voxel 0.0000001 -o "$tmp/v.vdb"
+grep -q "would need about" "$tmp/err" && ok || bad "voxelize refuses with an estimate"
+[ ! -e "$tmp/v.vdb" ] && ok || bad "no output after a refused voxelize"
+
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]
