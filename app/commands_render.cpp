@@ -184,8 +184,8 @@ void addRenderCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
             std::vector<render::IsoLayer> layers;
             for (const auto& s : a->iso) layers.push_back(parseIsoLayer(s));
 
-            const bool meshInput =
-                !a->input.empty() && mesh::isMeshPath(a->input) && a->field.shape.empty() && a->field.expr.empty();
+            const bool meshInput = !a->input.empty() && mesh::isReadableMeshPath(a->input) && a->field.shape.empty() &&
+                                   a->field.expr.empty();
             if (meshInput) {
                 if (method == "march") throw CLI::ValidationError("--method", "a mesh is rendered with --method mesh");
                 method = "mesh";

@@ -541,6 +541,72 @@ void writeObj(const std::filesystem::path& path, const TriMesh& mesh) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// OFF (Geomview): "OFF" or "COFF", counts, vertices (with RGB[A] for COFF), polygons "n i1 .. in".
+TriMesh readOff(const std::filesystem::path& path, const std::string& data) {
+    TextCursor cur(data, path.string());
+    auto skip = [&] {  // whitespace and '#' comments
+        for (;;) {
+            cur.skipWhitespace();
+            if (cur.peek() != '#') return;
+            cur.nextLine();
+        }
+    };
+    skip();
+    const std::string_view magic = cur.word();
+    if (magic != "OFF" && magic != "COFF") cur.fail("expected OFF or COFF, found '" + std::string(magic) + "'");
+    const bool colours = magic == "COFF";
+    skip();
+    const long long nv = cur.number<long long>("the vertex count");
+    skip();
+    const long long nf = cur.number<long long>("the face count");
+    skip();
+    (void)cur.number<long long>("the edge count");
+    // Every vertex takes at least 6 bytes ("0 0 0\n"), every face 8: refuse counts the file cannot hold.
+    if (nv < 0 || nf < 0 || nv > static_cast<long long>(data.size()) / 6 ||
+        nf > static_cast<long long>(data.size()) / 8)
+        cur.fail("header declares " + std::to_string(nv) + " vertices and " + std::to_string(nf) +
+                 " faces, more than a file of " + std::to_string(data.size()) + " bytes can hold");
+    TriMesh mesh;
+    mesh.positions.reserve(static_cast<std::size_t>(nv));
+    bool bytes = false;
+    for (long long i = 0; i < nv; ++i) {
+        skip();
+        if (cur.atEnd()) cur.fail("file ends after " + std::to_string(i) + " of " + std::to_string(nv) + " vertices");
+        const float x = cur.number<float>("vertex x"), y = cur.number<float>("vertex y"),
+                    z = cur.number<float>("vertex z");
+        mesh.positions.emplace_back(x, y, z);
+        if (colours) {
+            glm::vec3 c;
+            for (int k = 0; k < 3; ++k) c[k] = cur.number<float>("a colour component");
+            if (!cur.atLineEnd()) (void)cur.number<float>("alpha");
+            bytes = bytes || c.x > 1.f || c.y > 1.f || c.z > 1.f;
+            mesh.colors.push_back(c);
+        }
+    }
+    if (bytes)
+        for (auto& c : mesh.colors) c /= 255.f;
+    std::vector<std::uint32_t> face;
+    for (long long f = 0; f < nf; ++f) {
+        skip();
+        if (cur.atEnd()) cur.fail("file ends after " + std::to_string(f) + " of " + std::to_string(nf) + " faces");
+        const long long n = cur.number<long long>("the face's vertex count");
+        if (n < 3 || n > nv)
+            cur.fail("a face needs 3 to " + std::to_string(nv) + " vertices, found " + std::to_string(n));
+        face.clear();
+        for (long long k = 0; k < n; ++k) {
+            const long long idx = cur.number<long long>("a vertex index");
+            if (idx < 0 || idx >= nv)
+                cur.fail("face names vertex " + std::to_string(idx) + ", but there are " + std::to_string(nv));
+            face.push_back(static_cast<std::uint32_t>(idx));
+        }
+        triangulateFace(mesh, face);
+        cur.nextLine();  // per-face colours, if any, are ignored
+    }
+    if (mesh.triangles.empty()) throw IoError(path.string() + ": OFF file has no faces");
+    return mesh;
+}
+
+// ---------------------------------------------------------------------------------------------
 // STL
 TriMesh readStl(const std::filesystem::path& path, const std::string& data) {
     const std::string file = path.string();
@@ -642,13 +708,18 @@ bool isMeshPath(const std::filesystem::path& path) {
     return e == ".ply" || e == ".obj" || e == ".stl";
 }
 
+bool isReadableMeshPath(const std::filesystem::path& path) {
+    return isMeshPath(path) || lowerExtension(path) == ".off";
+}
+
 TriMesh readMesh(const std::filesystem::path& path) {
     const std::string e = lowerExtension(path);
-    if (e != ".ply" && e != ".obj" && e != ".stl")
-        throw IoError(path.string() + ": unknown mesh extension '" + e + "' (expected .ply, .obj or .stl)");
+    if (e != ".ply" && e != ".obj" && e != ".stl" && e != ".off")
+        throw IoError(path.string() + ": unknown mesh extension '" + e + "' (expected .ply, .obj, .stl or .off)");
     const std::string data = readWholeFile(path);
     if (e == ".ply") return readPly(path, data);
     if (e == ".obj") return readObj(path, data);
+    if (e == ".off") return readOff(path, data);
     return readStl(path, data);
 }
 
@@ -661,7 +732,7 @@ void writeMesh(const std::filesystem::path& path, const TriMesh& mesh, const Wri
     else if (e == ".stl")
         writeStl(path, mesh);
     else
-        throw IoError(path.string() + ": unknown mesh extension '" + e + "' (expected .ply, .obj or .stl)");
+        throw IoError(path.string() + ": cannot write '" + e + "' meshes (write .ply, .obj or .stl)");
 }
 
 }  // namespace isoforge::mesh

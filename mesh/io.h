@@ -15,7 +15,7 @@ struct WriteOptions {
     bool ascii = false;  ///< PLY only: ASCII instead of binary little-endian
 };
 
-/// Reads a mesh; the format comes from the extension (.ply .obj .stl).
+/// Reads a mesh; the format comes from the extension (.ply .obj .stl .off).
 /// @throw IoError naming file and position on unreadable, malformed, truncated or hostile files.
 TriMesh readMesh(const std::filesystem::path& path);
 
@@ -24,7 +24,9 @@ TriMesh readMesh(const std::filesystem::path& path);
 /// @throw IoError on an unknown extension or a failed write (no partial file is left).
 void writeMesh(const std::filesystem::path& path, const TriMesh& mesh, const WriteOptions& options = {});
 
-/// True if the extension names a mesh format we can write.
+/// True if the extension names a mesh format we can write (.ply .obj .stl).
 bool isMeshPath(const std::filesystem::path& path);
+/// True if the extension names a mesh format we can read (those, and .off).
+bool isReadableMeshPath(const std::filesystem::path& path);
 
 }  // namespace isoforge::mesh

@@ -130,3 +130,37 @@ TEST(MeshIo, FailedWritesLeaveNoFileAndKeepTheOldOne) {
     EXPECT_EQ(files, 1);  // only keep.ply: no temporary left behind
     std::filesystem::remove_all(dir);
 }
+
+TEST(MeshIo, ReadsOffAndCoffAndRefusesBadOnes) {
+    const auto dir = test::scratchDir("meshoff");
+    // The cow written as OFF (quads and triangles as in its OBJ) reads back to the same surface.
+    const TriMesh cow = readMesh(test::sharedData() / "meshes/cow/cow.obj");
+    std::string off = "OFF\n# the VTK cow\n" + std::to_string(cow.positions.size()) + " " +
+                      std::to_string(cow.triangles.size()) + " 0\n";
+    for (const auto& p : cow.positions)
+        off += std::to_string(p.x) + " " + std::to_string(p.y) + " " + std::to_string(p.z) + "\n";
+    for (const auto& t : cow.triangles)
+        off += "3 " + std::to_string(t.x) + " " + std::to_string(t.y) + " " + std::to_string(t.z) + "\n";
+    spit(dir / "cow.off", off);
+    const TriMesh back = readMesh(dir / "cow.off");
+    EXPECT_EQ(back.triangles, cow.triangles);
+    EXPECT_NEAR(signedVolume(back), signedVolume(cow), 1e-4 * signedVolume(cow));
+    // COFF with byte colours, comments and a quad.
+    spit(dir / "c.off",
+         "COFF\n4 1 0\n0 0 0 255 0 0 255\n1 0 0 0 255 0 255\n# comment\n1 1 0 0 0 255 255\n0 1 0 "
+         "255 255 255 255\n4 0 1 2 3\n");
+    const TriMesh c = readMesh(dir / "c.off");
+    EXPECT_EQ(c.triangles.size(), 2u);
+    ASSERT_EQ(c.colors.size(), 4u);
+    EXPECT_FLOAT_EQ(c.colors[1].g, 1.f);
+    // Bad ones: position in the message, no crash.
+    spit(dir / "bad1.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n");
+    EXPECT_NE(errorOf(dir / "bad1.off").find("bad1.off:6:"), std::string::npos) << errorOf(dir / "bad1.off");
+    spit(dir / "bad2.off", "OFF\n999999999 1 0\n0 0 0\n");
+    EXPECT_NE(errorOf(dir / "bad2.off").find("more than a file of"), std::string::npos) << errorOf(dir / "bad2.off");
+    spit(dir / "bad3.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n");
+    EXPECT_NE(errorOf(dir / "bad3.off").find("file ends after 2 of 3 vertices"), std::string::npos)
+        << errorOf(dir / "bad3.off");
+    spit(dir / "bad4.off", "PLY\n");
+    EXPECT_NE(errorOf(dir / "bad4.off").find("expected OFF or COFF"), std::string::npos);
+}
