@@ -25,6 +25,7 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addCheckCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addPrimitiveCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addStripsCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
+void addSubdivideCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addSampleCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addVoxelizeCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addSliceCommand(CLI::App& app, const GlobalOptions& g, Commands& c);

@@ -1,13 +1,16 @@
 // isoforge check (and --repair), primitive, strips: commands on mesh files.
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 
 #include "app/commands.h"
+#include "core/error.h"
 #include "mesh/check.h"
 #include "mesh/io.h"
 #include "mesh/primitives.h"
 #include "mesh/repair.h"
 #include "mesh/strips.h"
+#include "mesh/subdivide.h"
 
 namespace isoforge::app {
 
@@ -109,6 +112,41 @@ void addStripsCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                 std::cout << line << (a->output.empty() ? "" : " -> " + a->output) << "\n";
             }
             return same ? 0 : 1;
+        };
+    });
+}
+
+void addSubdivideCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
+    struct Args {
+        std::string input, output, scheme = "loop";
+        int levels = 1;
+    };
+    auto a = std::make_shared<Args>();
+    auto* cmd = app.add_subcommand("subdivide", "Subdivide a triangle mesh (Loop's scheme)");
+    cmd->add_option("mesh", a->input, "Mesh file (.ply .obj .stl .off); must be manifold")->required();
+    cmd->add_option("--scheme", a->scheme, "loop (approximating); butterfly is not implemented yet")
+        ->check(CLI::IsMember({"loop"}));
+    cmd->add_option("--levels", a->levels, "Levels (each multiplies the triangles by 4; default 1)")
+        ->check(CLI::Range(1, 8));
+    cmd->add_option("-o,--output", a->output, "Mesh file: .ply, .obj or .stl")->required();
+    cmd->callback([&c, &g, a] {
+        c.run = [&g, a] {
+            if (!mesh::isMeshPath(a->output))
+                throw CLI::ValidationError("--output", a->output + ": expected a .ply, .obj or .stl file name");
+            mesh::TriMesh m = mesh::readMesh(a->input);
+            const std::size_t before = m.triangleCount();
+            const double estimate = double(before) * std::pow(4.0, a->levels) * 40.0;  // bytes, roughly
+            if (estimate > 8e9)
+                throw ResourceError("subdividing " + withCommas(before) + " triangles " + std::to_string(a->levels) +
+                                    " times would need about " +
+                                    withCommas(static_cast<unsigned long long>(estimate / (1 << 20))) +
+                                    " MiB: use fewer --levels");
+            for (int i = 0; i < a->levels; ++i) m = mesh::loopSubdivide(m);
+            mesh::writeMesh(a->output, m);
+            if (!g.quiet)
+                std::cout << "subdivided " << a->input << " (loop, " << a->levels << " levels): " << withCommas(before)
+                          << " -> " << withCommas(m.triangleCount()) << " triangles -> " << a->output << "\n";
+            return 0;
         };
     });
 }

@@ -51,6 +51,7 @@ int main(int argc, char** argv) {
     app::addCheckCommand(app, global, commands);
     app::addPrimitiveCommand(app, global, commands);
     app::addStripsCommand(app, global, commands);
+    app::addSubdivideCommand(app, global, commands);
     app::addSampleCommand(app, global, commands);
     app::addVoxelizeCommand(app, global, commands);
     app::addRenderCommand(app, global, commands);

@@ -153,5 +153,12 @@ expect_exit 1 "absurd voxel" "$bin" voxelize "$tmp/cone.ply" --voxel 0.0000001 -
 grep -q "would need about" "$tmp/err" && ok || bad "voxelize refuses with an estimate"
 [ ! -e "$tmp/v.vdb" ] && ok || bad "no output after a refused voxelize"
 
+# subdivide
+expect_exit 0 "subdivide loop" "$bin" subdivide "$tmp/p_cube.obj" --scheme loop --levels 2 -o "$tmp/cube_loop.ply"
+expect_exit 0 "loop keeps a closed manifold" "$bin" check --strict "$tmp/cube_loop.ply"
+expect_exit 2 "butterfly not yet" "$bin" subdivide "$tmp/p_cube.obj" --scheme butterfly -o "$tmp/b.ply"
+expect_exit 1 "absurd levels" "$bin" subdivide "$shared/meshes/bunny/bunny.ply" --levels 8 -o "$tmp/b.ply"
+grep -q "would need about" "$tmp/err" && ok || bad "subdivide refuses with an estimate"
+
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]
