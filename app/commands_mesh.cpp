@@ -122,10 +122,11 @@ void addSubdivideCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
         int levels = 1;
     };
     auto a = std::make_shared<Args>();
-    auto* cmd = app.add_subcommand("subdivide", "Subdivide a triangle mesh (Loop's scheme)");
+    auto* cmd = app.add_subcommand(
+        "subdivide", "Subdivide a triangle mesh: Loop (approximating) or modified butterfly (interpolating)");
     cmd->add_option("mesh", a->input, "Mesh file (.ply .obj .stl .off); must be manifold")->required();
-    cmd->add_option("--scheme", a->scheme, "loop (approximating); butterfly is not implemented yet")
-        ->check(CLI::IsMember({"loop"}));
+    cmd->add_option("--scheme", a->scheme, "loop (approximating, default) or butterfly (interpolating)")
+        ->check(CLI::IsMember({"loop", "butterfly"}));
     cmd->add_option("--levels", a->levels, "Levels (each multiplies the triangles by 4; default 1)")
         ->check(CLI::Range(1, 8));
     cmd->add_option("-o,--output", a->output, "Mesh file: .ply, .obj or .stl")->required();
@@ -141,11 +142,13 @@ void addSubdivideCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                                     " times would need about " +
                                     withCommas(static_cast<unsigned long long>(estimate / (1 << 20))) +
                                     " MiB: use fewer --levels");
-            for (int i = 0; i < a->levels; ++i) m = mesh::loopSubdivide(m);
+            for (int i = 0; i < a->levels; ++i)
+                m = a->scheme == "loop" ? mesh::loopSubdivide(m) : mesh::butterflySubdivide(m);
             mesh::writeMesh(a->output, m);
             if (!g.quiet)
-                std::cout << "subdivided " << a->input << " (loop, " << a->levels << " levels): " << withCommas(before)
-                          << " -> " << withCommas(m.triangleCount()) << " triangles -> " << a->output << "\n";
+                std::cout << "subdivided " << a->input << " (" << a->scheme << ", " << a->levels
+                          << " levels): " << withCommas(before) << " -> " << withCommas(m.triangleCount())
+                          << " triangles -> " << a->output << "\n";
             return 0;
         };
     });

@@ -156,7 +156,9 @@ grep -q "would need about" "$tmp/err" && ok || bad "voxelize refuses with an est
 # subdivide
 expect_exit 0 "subdivide loop" "$bin" subdivide "$tmp/p_cube.obj" --scheme loop --levels 2 -o "$tmp/cube_loop.ply"
 expect_exit 0 "loop keeps a closed manifold" "$bin" check --strict "$tmp/cube_loop.ply"
-expect_exit 2 "butterfly not yet" "$bin" subdivide "$tmp/p_cube.obj" --scheme butterfly -o "$tmp/b.ply"
+expect_exit 0 "subdivide butterfly" "$bin" subdivide "$tmp/p_cube.obj" --scheme butterfly --levels 3 -o "$tmp/rounded.ply"
+expect_exit 0 "butterfly keeps a closed manifold" "$bin" check --strict "$tmp/rounded.ply"
+expect_exit 2 "unknown scheme" "$bin" subdivide "$tmp/p_cube.obj" --scheme catmull -o "$tmp/b.ply"
 expect_exit 1 "absurd levels" "$bin" subdivide "$shared/meshes/bunny/bunny.ply" --levels 8 -o "$tmp/b.ply"
 grep -q "would need about" "$tmp/err" && ok || bad "subdivide refuses with an estimate"
 
