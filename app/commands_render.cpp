@@ -195,7 +195,6 @@ void addRenderCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
             } else if (namesField(a->input, a->field)) {
                 csg::Scene scene;
                 field = makeField(a->input, a->field, clip, &scene);
-                for (const auto& w : scene.warnings) (void)w;  // printed by makeField
                 if (scene.root) {
                     look.camera.eye = scene.camera.eye;
                     look.camera.target = scene.camera.target;

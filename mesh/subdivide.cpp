@@ -8,6 +8,19 @@
 
 namespace isoforge::mesh {
 
+namespace {
+/// Every triangle into four, around the edge vertices `odd(halfEdge)` makes (one per edge).
+template <class Odd>
+void splitInFour(const TriMesh& in, TriMesh& out, Odd&& odd) {
+    out.triangles.reserve(in.triangles.size() * 4);
+    for (std::uint32_t f = 0; f < in.triangles.size(); ++f) {
+        const glm::uvec3& t = in.triangles[f];
+        const std::uint32_t ab = odd(3 * f), bc = odd(3 * f + 1), ca = odd(3 * f + 2);
+        out.triangles.insert(out.triangles.end(), {{t.x, ab, ca}, {t.y, bc, ab}, {t.z, ca, bc}, {ab, bc, ca}});
+    }
+}
+}  // namespace
+
 TriMesh loopSubdivide(const TriMesh& in) {
     const HalfEdgeMesh h(in);
     TriMesh out;
@@ -53,12 +66,7 @@ TriMesh loopSubdivide(const TriMesh& in) {
         }
         return it->second;
     };
-    out.triangles.reserve(in.triangles.size() * 4);
-    for (std::uint32_t f = 0; f < in.triangles.size(); ++f) {
-        const glm::uvec3& t = in.triangles[f];
-        const std::uint32_t ab = odd(3 * f), bc = odd(3 * f + 1), ca = odd(3 * f + 2);
-        out.triangles.insert(out.triangles.end(), {{t.x, ab, ca}, {t.y, bc, ab}, {t.z, ca, bc}, {ab, bc, ca}});
-    }
+    splitInFour(in, out, odd);
     return out;
 }
 
@@ -140,12 +148,7 @@ TriMesh butterflySubdivide(const TriMesh& in) {
         out.positions.push_back(glm::vec3(p));
         return it->second;
     };
-    out.triangles.reserve(in.triangles.size() * 4);
-    for (std::uint32_t f = 0; f < in.triangles.size(); ++f) {
-        const glm::uvec3& t = in.triangles[f];
-        const std::uint32_t ab = odd(3 * f), bc = odd(3 * f + 1), ca = odd(3 * f + 2);
-        out.triangles.insert(out.triangles.end(), {{t.x, ab, ca}, {t.y, bc, ab}, {t.z, ca, bc}, {ab, bc, ca}});
-    }
+    splitInFour(in, out, odd);
     return out;
 }
 

@@ -169,19 +169,12 @@ Frame renderMeshes(const std::vector<MeshObject>& objects, const Look& look, con
                 od.vertexColors
                     ? srgbToLinear(w * od.mesh->colors[tri.x] + u * od.mesh->colors[tri.y] + v * od.mesh->colors[tri.z])
                     : od.albedo;
-            surf.opacity = od.material.color.a;
-            surf.diffuse = od.material.diffuse;
-            surf.specular = od.material.specular;
-            surf.shininess = od.material.shininess;
+            surf.setMaterial(od.material);
             const glm::vec3 origin = surf.position + n * (eps + od.offset + 1e-5f * rh.ray.tfar);
-            auto visible = [&](std::size_t li, const glm::vec3& L) {
-                if (!o.shadows) return true;
-                return !occluded(origin, L, lights[li].point ? glm::length(lights[li].vector - origin) : kInf);
-            };
-            const float ao = detail::ambientOcclusion(
-                n, o.aoSamples, static_cast<std::uint32_t>(pix * 64u + s * 16u + static_cast<std::size_t>(layer)),
-                [&](const glm::vec3& d) { return !occluded(origin, d, aoReach); });
-            acc += transmit * surf.opacity * detail::shade(surf, ray.dir, lights, look.ambient, ao, visible);
+            acc += transmit * surf.opacity *
+                   detail::shadeHit(surf, origin, ray.dir, look, lights, o, aoReach,
+                                    static_cast<std::uint32_t>(pix * 64u + s * 16u + static_cast<std::size_t>(layer)),
+                                    occluded);
             if (!out.hit) {
                 out.hit = true;
                 out.depth = rh.ray.tfar;
@@ -248,10 +241,7 @@ Frame renderMeshes(const std::vector<MeshObject>& objects, const Look& look, con
                 od.vertexColors
                     ? srgbToLinear(w * od.mesh->colors[tri.x] + u * od.mesh->colors[tri.y] + v * od.mesh->colors[tri.z])
                     : od.albedo;
-            sf.opacity = 1.f;
-            sf.diffuse = od.material.diffuse;
-            sf.specular = od.material.specular;
-            sf.shininess = od.material.shininess;
+            sf.setMaterial(od.material);
             origin[k] = sf.position + nrm * (eps + od.offset + 1e-5f * t);
             opaqueHit[k] = true;
             out[k].hit = true;

@@ -356,22 +356,14 @@ Frame marchGrid(const openvdb::FloatGrid& grid, const std::vector<IsoLayer>& lay
             if (glm::dot(n, ray.dir) > 0) n = -n;
             surf.normal = n;
             surf.albedo = srgbToLinear(glm::vec3(L.material.color));
-            surf.opacity = L.material.color.a;
-            surf.diffuse = L.material.diffuse;
-            surf.specular = L.material.specular;
-            surf.shininess = L.material.shininess;
+            surf.setMaterial(L.material);
             const glm::vec3 origin = surf.position + n * float(0.75 * voxel);
             const float tWorld = float(c->t * voxel);
-            auto visible = [&](std::size_t li, const glm::vec3& Ld) {
-                if (!o.shadows) return true;
-                return !blocked(st, origin, Ld, lights[li].point ? glm::length(lights[li].vector - origin) : kInf);
-            };
-            const float ao = detail::ambientOcclusion(
-                n, o.aoSamples, static_cast<std::uint32_t>(pix * 64u + s * 16u + static_cast<std::size_t>(layer)),
-                [&](const glm::vec3& d) {
-                    return !blocked(st, origin, d, o.aoDistance > 0 ? o.aoDistance : float(20 * voxel));
-                });
-            acc += transmit * surf.opacity * detail::shade(surf, ray.dir, lights, look.ambient, ao, visible);
+            acc += transmit * surf.opacity *
+                   detail::shadeHit(
+                       surf, origin, ray.dir, look, lights, o, o.aoDistance > 0 ? o.aoDistance : float(20 * voxel),
+                       static_cast<std::uint32_t>(pix * 64u + s * 16u + static_cast<std::size_t>(layer)),
+                       [&](const glm::vec3& org, const glm::vec3& d, float tmax) { return blocked(st, org, d, tmax); });
             if (!out.hit) {
                 out.hit = true;
                 out.depth = tWorld;

@@ -192,19 +192,12 @@ Frame marchField(const implicit::FieldPtr& field, const implicit::Box3& region, 
             const implicit::Material* m = tf->materialAt(surf.position);
             if (!m) m = &plain;
             surf.albedo = srgbToLinear(glm::vec3(m->color));
-            surf.opacity = m->color.a;
-            surf.diffuse = m->diffuse;
-            surf.specular = m->specular;
-            surf.shininess = m->shininess;
+            surf.setMaterial(*m);
             const glm::vec3 origin = surf.position + n * std::max(2.f * eps, 0.5f * rays.pixelSize(*hit));
-            auto visible = [&](std::size_t li, const glm::vec3& L) {
-                if (!o.shadows) return true;
-                return !blocked(origin, L, lights[li].point ? glm::length(lights[li].vector - origin) : kInf);
-            };
-            const float ao = detail::ambientOcclusion(
-                n, o.aoSamples, static_cast<std::uint32_t>(pix * 64u + s * 16u + static_cast<std::size_t>(layer)),
-                [&](const glm::vec3& d) { return !blocked(origin, d, aoReach); });
-            acc += transmit * surf.opacity * detail::shade(surf, ray.dir, lights, look.ambient, ao, visible);
+            acc += transmit * surf.opacity *
+                   detail::shadeHit(surf, origin, ray.dir, look, lights, o, aoReach,
+                                    static_cast<std::uint32_t>(pix * 64u + s * 16u + static_cast<std::size_t>(layer)),
+                                    blocked);
             if (!out.hit) {
                 out.hit = true;
                 out.depth = *hit;

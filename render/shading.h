@@ -92,6 +92,13 @@ struct Surface {
     glm::vec3 albedo;            ///< linear
     float opacity = 1.f;
     float diffuse = 0.9f, specular = 0.25f, shininess = 40.f;
+    /// Opacity and Phong terms from a material (the albedo is set by the caller: vertex colours).
+    void setMaterial(const implicit::Material& m) {
+        opacity = m.color.a;
+        diffuse = m.diffuse;
+        specular = m.specular;
+        shininess = m.shininess;
+    }
 };
 
 /// Blinn-Phong with a hemispherical ambient term; `visible(l)` tells whether light l reaches the
@@ -256,6 +263,23 @@ float ambientOcclusion(const glm::vec3& n, int samples, std::uint32_t seed, Open
         free += open(r * std::cos(phi) * t1 + r * std::sin(phi) * t2 + std::sqrt(std::max(0.f, 1.f - r1)) * n) ? 1 : 0;
     }
     return float(free) / float(samples);
+}
+
+/// A hit shaded as every renderer does: shadow rays to each light and ambient-occlusion rays start at
+/// `origin` (just off the surface); `blocked(origin, direction, tmax)` answers whether something is hit.
+template <class Blocked>
+glm::vec3 shadeHit(const Surface& s, const glm::vec3& origin, const glm::vec3& viewDir, const Look& look,
+                   const std::vector<Light>& lights, const RenderOptions& o, float aoReach, std::uint32_t seed,
+                   Blocked&& blocked) {
+    auto visible = [&](std::size_t li, const glm::vec3& L) {
+        if (!o.shadows) return true;
+        return !blocked(
+            origin, L,
+            lights[li].point ? glm::length(lights[li].vector - origin) : std::numeric_limits<float>::infinity());
+    };
+    const float ao =
+        ambientOcclusion(s.normal, o.aoSamples, seed, [&](const glm::vec3& d) { return !blocked(origin, d, aoReach); });
+    return shade(s, viewDir, lights, look.ambient, ao, visible);
 }
 
 }  // namespace isoforge::render::detail
