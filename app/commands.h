@@ -26,6 +26,7 @@ void addCheckCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addPrimitiveCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addStripsCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addSubdivideCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
+void addTessellateCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addSampleCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addVoxelizeCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addSliceCommand(CLI::App& app, const GlobalOptions& g, Commands& c);

@@ -111,7 +111,9 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
     cmd->add_option("input", a->input,
                     "Volume (.vdb), scene (.isf, OpenSCAD .csg) or implicit model (.vm); or --shape / --expr");
     addFieldOptions(cmd, a->field, true);
-    cmd->add_option("-o,--output", a->output, "Mesh file: .ply (binary; --ascii for text), .obj or .stl")->required();
+    cmd->add_option("-o,--output", a->output,
+                    "Mesh file: .ply (binary; --ascii for text), .obj, .stl or .glb (glTF, with vertex colours)")
+        ->required();
     cmd->add_option("--grid", a->grid, "Grid name (default: the first level set, else the first float grid)");
     cmd->add_option("--iso", a->iso, "Iso-value (default 0: the zero level set)");
     cmd->add_option("--inside", a->inside,
@@ -124,7 +126,7 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
     cmd->callback([&c, &g, a] {
         c.run = [&g, a] {
             if (!mesh::isMeshPath(a->output))
-                throw CLI::ValidationError("--output", a->output + ": expected a .ply, .obj or .stl file name");
+                throw CLI::ValidationError("--output", a->output + ": expected a .ply, .obj, .stl or .glb file name");
             using Clock = std::chrono::steady_clock;
             const auto t0 = Clock::now();
             TerminalProgress progress;
@@ -196,7 +198,7 @@ void addVoxelizeCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
     auto a = std::make_shared<Args>();
     auto* cmd = app.add_subcommand(
         "voxelize", "Turn a mesh into a narrow-band level set (.vdb): signed if the mesh is closed, unsigned if open");
-    cmd->add_option("mesh", a->input, "Mesh file (.ply .obj .stl)")->required();
+    cmd->add_option("mesh", a->input, "Mesh file (.ply .obj .stl .off)")->required();
     cmd->add_option("-o,--output", a->output, "Output .vdb file")->required();
     cmd->add_option("--voxel", a->voxel, "Voxel size in world units")->check(CLI::PositiveNumber);
     cmd->add_option("--resolution", a->resolution, "Voxels along the longest side (default 256, if no --voxel)")

@@ -52,6 +52,7 @@ int main(int argc, char** argv) {
     app::addPrimitiveCommand(app, global, commands);
     app::addStripsCommand(app, global, commands);
     app::addSubdivideCommand(app, global, commands);
+    app::addTessellateCommand(app, global, commands);
     app::addSampleCommand(app, global, commands);
     app::addVoxelizeCommand(app, global, commands);
     app::addRenderCommand(app, global, commands);

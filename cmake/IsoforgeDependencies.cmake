@@ -22,6 +22,7 @@ endforeach()
 find_package(glm REQUIRED CONFIG)                     # glm::glm
 find_package(CLI11 REQUIRED CONFIG)                   # CLI11::CLI11
 find_package(meshoptimizer REQUIRED CONFIG)           # meshoptimizer::meshoptimizer (triangle strips)
+find_package(TinyGLTF REQUIRED CONFIG)                # TinyGLTF::TinyGLTF (.glb output)
 
 if(ISOFORGE_BUILD_TESTS)
   find_package(GTest REQUIRED)                        # GTest::gtest_main

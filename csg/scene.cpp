@@ -23,6 +23,8 @@
 #include "implicit/quadric.h"
 #include "implicit/tape.h"
 #include "mesh/io.h"
+#include "mesh/parametric.h"
+#include "mesh/subdivide.h"
 #include "volume/grid_field.h"
 
 namespace isoforge::csg {
@@ -1012,6 +1014,87 @@ private:
     }
     void primitive() { ++scene_.primitives; }
 
+    static int resolutionArg(const Args& a, int def) {
+        const double r = a.number("resolution", def);
+        if (!(r >= 1 && r <= 1024)) throw a.error("resolution", "resolution must be from 1 to 1024");
+        return static_cast<int>(r);
+    }
+
+    /// nurbs(points = [[p, ...], ...] rows along v of points along u, each [x, y, z] or [x, y, z, w],
+    /// knots_u, knots_v (default: clamped uniform), degree = p or [pu, pv] (default 3, at most the
+    /// count - 1), weights = [[w, ...], ...]).
+    static mesh::NurbsSurface nurbsSurface(const Args& a) {
+        int line = 0, col = 0;
+        const Value* pts = a.raw("points", &line, &col);
+        if (!pts || pts->kind != Value::Vector || pts->v.empty())
+            throw a.error("points", "nurbs() needs points: rows of [x, y, z] or [x, y, z, w]");
+        mesh::NurbsSurface ns;
+        ns.countV = static_cast<int>(pts->v.size());
+        ns.countU = static_cast<int>(pts->v[0].v.size());
+        if (ns.countV > 4096 || ns.countU > 4096) throw a.error("points", "nurbs() takes at most 4096 x 4096 points");
+        bool rational = false;
+        std::vector<double> w;
+        for (const Value& row : pts->v) {
+            if (row.kind != Value::Vector || static_cast<int>(row.v.size()) != ns.countU)
+                throw a.error("points", "nurbs() points must be rows of the same length (" + std::to_string(ns.countU) +
+                                            " points each)");
+            for (const Value& p : row.v) {
+                if (p.kind != Value::Vector || p.v.size() < 3 || p.v.size() > 4)
+                    throw a.error("points", "each nurbs() point must be [x, y, z] or [x, y, z, w]");
+                for (const Value& c : p.v)
+                    if (c.kind != Value::Number) throw a.error("points", "nurbs() point coordinates must be numbers");
+                ns.points.emplace_back(p.v[0].n, p.v[1].n, p.v[2].n);
+                w.push_back(p.v.size() == 4 ? p.v[3].n : 1.0);
+                rational = rational || p.v.size() == 4;
+            }
+        }
+        if (const Value* wv = a.raw("weights"); wv && wv->kind != Value::Undef) {
+            std::vector<double> given;
+            if (wv->kind == Value::Vector)
+                for (const Value& row : wv->v) {
+                    if (row.kind == Value::Number) given.push_back(row.n);
+                    for (const Value& x : row.v)
+                        if (x.kind == Value::Number) given.push_back(x.n);
+                }
+            if (given.size() != w.size())
+                throw a.error("weights", "nurbs() needs one weight per point (" + std::to_string(w.size()) + ")");
+            w = std::move(given);
+            rational = true;
+        }
+        if (rational) ns.weights = std::move(w);
+        ns.degreeU = ns.degreeV = 3;
+        if (a.has("degree")) {
+            const glm::dvec3 d = a.vec3("degree");
+            ns.degreeU = static_cast<int>(d.x);
+            ns.degreeV = static_cast<int>(d.y);
+        } else {
+            ns.degreeU = std::min(3, ns.countU - 1);
+            ns.degreeV = std::min(3, ns.countV - 1);
+        }
+        auto knots = [&](const char* k, int count, int degree) {
+            const Value* kv = a.raw(k);
+            if (!kv || kv->kind == Value::Undef) return mesh::clampedUniformKnots(count, degree);
+            std::vector<double> out;
+            if (kv->kind == Value::Vector)
+                for (const Value& x : kv->v) {
+                    if (x.kind != Value::Number) throw a.error(k, std::string(k) + " must be a list of numbers");
+                    out.push_back(x.n);
+                }
+            else
+                throw a.error(k, std::string(k) + " must be a list of numbers");
+            return out;
+        };
+        if (ns.degreeU < 1 || ns.degreeV < 1) throw a.error("degree", "nurbs() degrees must be at least 1");
+        ns.knotsU = knots("knots_u", ns.countU, ns.degreeU);
+        ns.knotsV = knots("knots_v", ns.countV, ns.degreeV);
+        try {
+            ns.validate();
+        } catch (const std::invalid_argument& e) {
+            throw EvalError{line, col, std::string("nurbs(): ") + e.what()};
+        }
+        return ns;
+    }
+
     FieldPtr call(const Statement& s, const Scope& outer, int depth) {
         // Special variables given as arguments ($fn = 0, ...) apply to this call.
         Scope scope{{}, &outer};
@@ -1024,6 +1107,19 @@ private:
             primitive();
             note(depth, what, s);
             return f;
+        };
+        // A triangle mesh as a solid: a file (any mesh, inside from the winding number) or one we
+        // tessellated (closed ones are trusted to be oriented, so the sign comes from pseudonormals).
+        auto meshLeaf = [&](mesh::TriMesh m, const std::string& what, bool generated) {
+            bool closed = false;
+            std::vector<glm::uvec3> tris(m.triangles.begin(), m.triangles.end());
+            FieldPtr f = makeTriangleMeshField(std::move(m.positions), std::move(tris), n, &closed, generated);
+            if (!closed)
+                d_.warn(s.line, s.col,
+                        what +
+                            " is not closed: inside and outside come from the generalized winding number, "
+                            "which bridges small holes");
+            return leaf(f, n);
         };
 
         // --- OpenSCAD 3D primitives
@@ -1099,7 +1195,7 @@ private:
             return leaf(makeRectangle2D(lo, lo + sz), "square");
         }
         if (n == "polygon") {
-            Args a = args({"points", "paths", "convexity"});
+            Args a = args({"points", "paths", "convexity", "subdivide", "levels"});
             const Value* pts = a.raw("points");
             if (!pts) throw EvalError{s.line, s.col, "polygon() needs points"};
             std::vector<glm::vec2> p;
@@ -1110,6 +1206,42 @@ private:
                     paths.emplace_back();
                     for (const auto& i : q.v) paths.back().push_back(static_cast<int>(i.n));
                 }
+            // isoforge's extension: smooth the outline(s) by curve subdivision before use.
+            if (a.has("subdivide")) {
+                const std::string scheme = a.string("subdivide");
+                if (scheme != "chaikin" && scheme != "4point")
+                    throw a.error("subdivide", "subdivide must be \"chaikin\" or \"4point\"");
+                const double levels = a.number("levels", 3.0);
+                if (!(levels >= 0 && levels <= 10)) throw a.error("levels", "levels must be from 0 to 10");
+                if (p.size() * (std::size_t(1) << static_cast<int>(levels)) > 10000000)
+                    throw a.error("levels", "subdividing " + std::to_string(p.size()) + " points " +
+                                                std::to_string(static_cast<int>(levels)) + " times is too many");
+                auto smooth = [&](std::vector<glm::vec2> ring) {
+                    return scheme == "chaikin" ? mesh::chaikin(std::move(ring), static_cast<int>(levels))
+                                               : mesh::fourPoint(std::move(ring), static_cast<int>(levels));
+                };
+                if (paths.empty()) {
+                    p = smooth(std::move(p));
+                } else {
+                    std::vector<glm::vec2> all;
+                    std::vector<std::vector<int>> newPaths;
+                    for (const auto& path : paths) {
+                        std::vector<glm::vec2> ring;
+                        for (int i : path) {
+                            if (i < 0 || std::size_t(i) >= p.size())
+                                throw a.error("paths", "path index " + std::to_string(i) + " is out of range");
+                            ring.push_back(p[std::size_t(i)]);
+                        }
+                        newPaths.emplace_back();
+                        for (const glm::vec2& q : smooth(std::move(ring))) {
+                            newPaths.back().push_back(static_cast<int>(all.size()));
+                            all.push_back(q);
+                        }
+                    }
+                    p = std::move(all);
+                    paths = std::move(newPaths);
+                }
+            }
             return leaf(makePolygon2D(std::move(p), std::move(paths)), "polygon");
         }
         if (n == "linear_extrude") {
@@ -1344,16 +1476,18 @@ private:
         if (n == "mesh") {
             Args a = args({"file"});
             const std::string file = path(a.string("file"));
-            mesh::TriMesh m = mesh::readMesh(file);
-            std::vector<glm::uvec3> tris(m.triangles.begin(), m.triangles.end());
-            bool closed = false;
-            FieldPtr f = makeTriangleMeshField(std::move(m.positions), std::move(tris), "mesh", &closed);
-            if (!closed)
-                d_.warn(s.line, s.col,
-                        "mesh(\"" + a.string("file") +
-                            "\") is not closed: inside and outside come from the generalized winding number, "
-                            "which bridges small holes");
-            return leaf(f, "mesh");
+            return meshLeaf(mesh::readMesh(file), "mesh(\"" + a.string("file") + "\")", false);
+        }
+        if (n == "bezier_patches") {
+            Args a = args({"file", "resolution"});
+            const std::string file = path(a.string("file"));
+            const int res = resolutionArg(a, 16);
+            const auto patches = mesh::readBezierPatches(file);
+            return meshLeaf(mesh::tessellate(patches, res), "bezier_patches(\"" + a.string("file") + "\")", true);
+        }
+        if (n == "nurbs") {
+            Args a = args({"points", "knots_u", "knots_v", "degree", "weights", "resolution"});
+            return meshLeaf(mesh::tessellate(nurbsSurface(a), resolutionArg(a, 32)), "nurbs()", true);
         }
         if (n == "blobby") {
             Args a = args({"threshold", "kernel"});

@@ -1,5 +1,6 @@
 #pragma once
-/// @file Mesh files: PLY (ASCII and binary, either endianness), Wavefront OBJ, STL (binary and ASCII).
+/// @file Mesh files: PLY (ASCII and binary, either endianness), Wavefront OBJ, STL (binary and ASCII),
+/// OFF (input), glTF 2.0 binary .glb (output, with vertex colours).
 /// The format is chosen by the file extension. Readers accept files made by other tools
 /// (polygons are fan-triangulated, STL's unshared vertices are welded) and report problems with
 /// the file name and position (line:column for text, byte offset for binary). Writers are atomic.
@@ -19,14 +20,14 @@ struct WriteOptions {
 /// @throw IoError naming file and position on unreadable, malformed, truncated or hostile files.
 TriMesh readMesh(const std::filesystem::path& path);
 
-/// Writes a mesh atomically; the format comes from the extension (.ply .obj .stl).
-/// Normals are written where the format can hold them (PLY, OBJ).
+/// Writes a mesh atomically; the format comes from the extension (.ply .obj .stl .glb).
+/// Normals are written where the format can hold them (PLY, OBJ, glTF), colours likewise (PLY, glTF).
 /// @throw IoError on an unknown extension or a failed write (no partial file is left).
 void writeMesh(const std::filesystem::path& path, const TriMesh& mesh, const WriteOptions& options = {});
 
-/// True if the extension names a mesh format we can write (.ply .obj .stl).
+/// True if the extension names a mesh format we can write (.ply .obj .stl .glb).
 bool isMeshPath(const std::filesystem::path& path);
-/// True if the extension names a mesh format we can read (those, and .off).
+/// True if the extension names a mesh format we can read (.ply .obj .stl .off).
 bool isReadableMeshPath(const std::filesystem::path& path);
 
 }  // namespace isoforge::mesh

@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <unordered_map>
+#include <unordered_set>
+
+#include <glm/geometric.hpp>
 
 #include "mesh/halfedge.h"
 
@@ -21,20 +24,45 @@ void splitInFour(const TriMesh& in, TriMesh& out, Odd&& odd) {
 }
 }  // namespace
 
-TriMesh loopSubdivide(const TriMesh& in) {
+namespace {
+
+std::uint64_t edgeKey(std::uint32_t a, std::uint32_t b) {
+    return (std::uint64_t(std::min(a, b)) << 32) | std::max(a, b);
+}
+
+/// One level of Loop's scheme. `sharp` holds the crease edges (boundary edges are always sharp); the
+/// crease edges of the result (the halves of these) are returned in it.
+TriMesh loopStep(const TriMesh& in, std::unordered_set<std::uint64_t>& sharp) {
     const HalfEdgeMesh h(in);
     TriMesh out;
     const std::size_t nv = in.positions.size();
     out.positions.resize(nv);
-    // Even (old) vertices.
+    auto isSharp = [&](std::uint32_t a, std::uint32_t b) { return sharp.count(edgeKey(a, b)) != 0; };
+    // Even (old) vertices: smooth (Loop's beta), crease (two sharp edges, or a boundary: the cubic
+    // B-spline rule along them) or corner (three or more: fixed).
     for (std::uint32_t v = 0; v < nv; ++v) {
         const auto ring = h.oneRing(v);
         const glm::vec3 p = in.positions[v];
-        if (ring.empty()) {
+        std::uint32_t along[2] = {0, 0};
+        std::size_t sharpCount = 0;
+        const bool boundary = !ring.empty() && h.isBoundaryVertex(v);
+        if (boundary) {
+            along[0] = ring.front();
+            along[1] = ring.back();
+            sharpCount = 2;
+        }
+        for (std::size_t i = 0; i < ring.size(); ++i) {
+            if (boundary && (i == 0 || i + 1 == ring.size())) continue;
+            if (isSharp(v, ring[i])) {
+                if (sharpCount < 2) along[sharpCount] = ring[i];
+                ++sharpCount;
+            }
+        }
+        if (ring.empty() || sharpCount >= 3) {
             out.positions[v] = p;
-        } else if (h.isBoundaryVertex(v)) {
-            out.positions[v] = 0.75f * p + 0.125f * (in.positions[ring.front()] + in.positions[ring.back()]);
-        } else {
+        } else if (sharpCount == 2) {
+            out.positions[v] = 0.75f * p + 0.125f * (in.positions[along[0]] + in.positions[along[1]]);
+        } else {  // smooth, or a dart (one crease edge ending here): Loop's rule
             const double k = double(ring.size());
             const double c = 3.0 / 8.0 + 0.25 * std::cos(2.0 * M_PI / k);
             const auto beta = static_cast<float>((5.0 / 8.0 - c * c) / k);
@@ -43,31 +71,56 @@ TriMesh loopSubdivide(const TriMesh& in) {
             out.positions[v] = (1.f - float(k) * beta) * p + beta * sum;
         }
     }
-    // Odd (edge) vertices, one per undirected edge.
+    // Odd (edge) vertices, one per undirected edge: midpoints of sharp edges, 3/8 3/8 1/8 1/8 elsewhere.
     std::unordered_map<std::uint64_t, std::uint32_t> edgeVertex;
     edgeVertex.reserve(in.triangles.size() * 3 / 2 + 1);
+    std::unordered_set<std::uint64_t> nextSharp;
     auto odd = [&](std::uint32_t he) {
         const std::uint32_t a = h.from(he), b = h.halfEdge(he).to;
-        const std::uint64_t key = (std::uint64_t(std::min(a, b)) << 32) | std::max(a, b);
-        auto [it, added] = edgeVertex.try_emplace(key, 0u);
+        auto [it, added] = edgeVertex.try_emplace(edgeKey(a, b), 0u);
         if (added) {
             const glm::vec3 pa = in.positions[a], pb = in.positions[b];
             const std::uint32_t t = h.halfEdge(he).twin;
-            glm::vec3 p;
-            if (t == HalfEdgeMesh::kNone) {
-                p = 0.5f * (pa + pb);
+            const auto m = static_cast<std::uint32_t>(out.positions.size());
+            if (t == HalfEdgeMesh::kNone || isSharp(a, b)) {
+                out.positions.push_back(0.5f * (pa + pb));
+                if (t != HalfEdgeMesh::kNone) nextSharp.insert({edgeKey(a, m), edgeKey(m, b)});
             } else {
                 const glm::vec3 c = in.positions[h.halfEdge(HalfEdgeMesh::next(he)).to];
                 const glm::vec3 d = in.positions[h.halfEdge(HalfEdgeMesh::next(t)).to];
-                p = 0.375f * (pa + pb) + 0.125f * (c + d);
+                out.positions.push_back(0.375f * (pa + pb) + 0.125f * (c + d));
             }
-            it->second = static_cast<std::uint32_t>(out.positions.size());
-            out.positions.push_back(p);
+            it->second = m;
         }
         return it->second;
     };
     splitInFour(in, out, odd);
+    sharp = std::move(nextSharp);
     return out;
+}
+
+}  // namespace
+
+TriMesh loopSubdivide(const TriMesh& in, int levels, double creaseAngleDegrees) {
+    std::unordered_set<std::uint64_t> sharp;
+    if (creaseAngleDegrees > 0.0 && creaseAngleDegrees < 180.0) {
+        const double cosLimit = std::cos(creaseAngleDegrees * M_PI / 180.0);
+        std::unordered_map<std::uint64_t, glm::dvec3> firstNormal;
+        for (const glm::uvec3& t : in.triangles) {
+            const glm::dvec3 a(in.positions[t.x]), b(in.positions[t.y]), c(in.positions[t.z]);
+            const glm::dvec3 cr = glm::cross(b - a, c - a);
+            const double len = glm::length(cr);
+            const glm::dvec3 n = len > 0 ? cr / len : glm::dvec3(0.0);
+            for (int e = 0; e < 3; ++e) {
+                const std::uint64_t k = edgeKey(t[e], t[(e + 1) % 3]);
+                auto [it, added] = firstNormal.try_emplace(k, n);
+                if (!added && glm::dot(it->second, n) < cosLimit) sharp.insert(k);
+            }
+        }
+    }
+    TriMesh m = in;
+    for (int i = 0; i < levels; ++i) m = loopStep(m, sharp);
+    return m;
 }
 
 namespace {
@@ -150,6 +203,45 @@ TriMesh butterflySubdivide(const TriMesh& in) {
     };
     splitInFour(in, out, odd);
     return out;
+}
+
+std::vector<glm::vec2> chaikin(std::vector<glm::vec2> p, int levels, bool closed) {
+    for (int l = 0; l < levels && p.size() >= 2; ++l) {
+        std::vector<glm::vec2> q;
+        q.reserve(2 * p.size());
+        const std::size_t n = p.size(), edges = closed ? n : n - 1;
+        if (!closed) q.push_back(p.front());
+        for (std::size_t i = 0; i < edges; ++i) {
+            const glm::vec2 a = p[i], b = p[(i + 1) % n];
+            q.push_back(0.75f * a + 0.25f * b);
+            q.push_back(0.25f * a + 0.75f * b);
+        }
+        if (!closed) q.push_back(p.back());
+        p = std::move(q);
+    }
+    return p;
+}
+
+std::vector<glm::vec2> fourPoint(std::vector<glm::vec2> p, int levels, bool closed) {
+    for (int l = 0; l < levels && p.size() >= 3; ++l) {
+        const std::size_t n = p.size(), edges = closed ? n : n - 1;
+        auto at = [&](std::ptrdiff_t i) {
+            if (closed) return p[std::size_t((i % std::ptrdiff_t(n) + std::ptrdiff_t(n)) % std::ptrdiff_t(n))];
+            if (i < 0) return 2.0f * p.front() - p[std::size_t(-i)];  // mirrored end
+            if (i >= std::ptrdiff_t(n)) return 2.0f * p.back() - p[2 * (n - 1) - std::size_t(i)];
+            return p[std::size_t(i)];
+        };
+        std::vector<glm::vec2> q;
+        q.reserve(2 * n);
+        for (std::size_t e = 0; e < edges; ++e) {
+            const auto i = std::ptrdiff_t(e);
+            q.push_back(p[e]);
+            q.push_back(9.0f / 16.0f * (at(i) + at(i + 1)) - 1.0f / 16.0f * (at(i - 1) + at(i + 2)));
+        }
+        if (!closed) q.push_back(p.back());
+        p = std::move(q);
+    }
+    return p;
 }
 
 }  // namespace isoforge::mesh

@@ -8,7 +8,7 @@ packages=(
   g++ cmake ninja-build git pkg-config ca-certificates
   # libraries
   libopenvdb-dev libboost-iostreams-dev libtbb-dev libembree-dev libopenimageio-dev libglm-dev zlib1g-dev
-  libcli11-dev libmeshoptimizer-dev
+  libcli11-dev libmeshoptimizer-dev libtinygltf-dev
   # OpenImageIO's CMake export names its command-line tools, so they must exist
   openimageio-tools
   # OpenVDB's own tools (vdb_print, vdb_render) for comparisons

@@ -161,6 +161,29 @@ expect_exit 0 "butterfly keeps a closed manifold" "$bin" check --strict "$tmp/ro
 expect_exit 2 "unknown scheme" "$bin" subdivide "$tmp/p_cube.obj" --scheme catmull -o "$tmp/b.ply"
 expect_exit 1 "absurd levels" "$bin" subdivide "$shared/meshes/bunny/bunny.ply" --levels 8 -o "$tmp/b.ply"
 grep -q "would need about" "$tmp/err" && ok || bad "subdivide refuses with an estimate"
+expect_exit 0 "subdivide loop with creases" "$bin" subdivide "$tmp/p_cube.obj" --levels 2 --crease-angle 30 -o "$tmp/crease.glb"
+grep -q -- "-> [0-9,]* triangles" "$tmp/out" && ok || bad "creased subdivide summary"
+expect_exit 2 "creases are Loop's" "$bin" subdivide "$tmp/p_cube.obj" --scheme butterfly --crease-angle 30 -o "$tmp/b.ply"
+
+# tessellate: Newell's teapot
+expect_exit 0 "tessellate the teapot" "$bin" tessellate "$src/data/teapot.bpt" --resolution 16 -o "$tmp/teapot.ply"
+grep -q "32 patches at resolution 16: .* 256 boundary edges" "$tmp/out" && ok || bad "tessellate summary"
+expect_exit 0 "check the teapot" "$bin" check "$tmp/teapot.ply"
+grep -q "oriented        yes" "$tmp/out" && ok || bad "teapot consistently oriented"
+expect_exit 0 "teapot as glTF" "$bin" tessellate "$src/data/teapot.bpt" --resolution 8 -o "$tmp/teapot.glb"
+[ "$(head -c 4 "$tmp/teapot.glb")" = "glTF" ] && ok || bad "teapot.glb starts with the glTF magic"
+head -c 3000 "$src/data/teapot.bpt" >"$tmp/cut.bpt"
+expect_exit 1 "truncated patch file" "$bin" tessellate "$tmp/cut.bpt" -o "$tmp/cut.ply"
+grep -q "cut.bpt:[0-9]*:[0-9]*: unexpected end of file" "$tmp/err" && ok || bad "truncated .bpt error names the position"
+[ ! -e "$tmp/cut.ply" ] && ok || bad "no output from a truncated patch file"
+expect_exit 1 "absurd tessellation" "$bin" tessellate "$src/data/teapot.bpt" --resolution 4000 -o "$tmp/t.ply"
+grep -q "MiB" "$tmp/err" && ok || bad "tessellate refuses with an estimate"
+
+# glTF output from the mesher, with vertex colours
+expect_exit 0 "mesh to .glb" "$bin" mesh "$src/data/sphere.vdb" -o "$tmp/sphere.glb"
+[ "$(head -c 4 "$tmp/sphere.glb")" = "glTF" ] && ok || bad "sphere.glb starts with the glTF magic"
+expect_exit 1 ".glb is not an input" "$bin" check "$tmp/sphere.glb"
+grep -q "output format" "$tmp/err" && ok || bad ".glb input refused clearly"
 
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

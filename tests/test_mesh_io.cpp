@@ -1,4 +1,8 @@
+#include <cmath>
 #include <fstream>
+
+#include <tiny_gltf.h>
+#include <glm/geometric.hpp>
 
 #include <gtest/gtest.h>
 
@@ -163,4 +167,58 @@ TEST(MeshIo, ReadsOffAndCoffAndRefusesBadOnes) {
         << errorOf(dir / "bad3.off");
     spit(dir / "bad4.off", "PLY\n");
     EXPECT_NE(errorOf(dir / "bad4.off").find("expected OFF or COFF"), std::string::npos);
+}
+
+TEST(MeshIo, WritesGlbThatTinyGltfReadsBack) {
+    // The cow, coloured by height, with normals: read back by tinygltf's own loader.
+    mesh::TriMesh m = mesh::readMesh(test::sourceDir() / "data/cow.obj");
+    const mesh::Bounds b = mesh::bounds(m);
+    for (const glm::vec3& p : m.positions) {
+        const float t = (p.y - b.min.y) / (b.max.y - b.min.y);
+        m.colors.emplace_back(t, 0.5f, 1.0f - t);
+        m.normals.push_back(glm::normalize(p - 0.5f * (b.min + b.max) + glm::vec3(1e-3f)));
+    }
+    const auto dir = test::scratchDir("glb");
+    mesh::writeMesh(dir / "cow.glb", m);
+
+    std::ifstream in(dir / "cow.glb", std::ios::binary);
+    char magic[4];
+    in.read(magic, 4);
+    EXPECT_EQ(std::string(magic, 4), "glTF");
+
+    tinygltf::Model model;
+    tinygltf::TinyGLTF loader;
+    std::string err, warn;
+    ASSERT_TRUE(loader.LoadBinaryFromFile(&model, &err, &warn, (dir / "cow.glb").string())) << err;
+    EXPECT_TRUE(err.empty()) << err;
+    ASSERT_EQ(model.meshes.size(), 1u);
+    const tinygltf::Primitive& prim = model.meshes[0].primitives.at(0);
+    auto floats = [&](const std::string& attribute) {
+        const tinygltf::Accessor& a = model.accessors.at(std::size_t(prim.attributes.at(attribute)));
+        const tinygltf::BufferView& v = model.bufferViews.at(std::size_t(a.bufferView));
+        EXPECT_EQ(a.componentType, TINYGLTF_COMPONENT_TYPE_FLOAT);
+        EXPECT_EQ(a.count, m.positions.size());
+        const auto* f = reinterpret_cast<const float*>(model.buffers[0].data.data() + v.byteOffset + a.byteOffset);
+        return std::vector<float>(f, f + 3 * a.count);
+    };
+    const std::vector<float> pos = floats("POSITION"), col = floats("COLOR_0"), nrm = floats("NORMAL");
+    for (std::size_t i = 0; i < m.positions.size(); ++i)
+        for (int c = 0; c < 3; ++c) {
+            ASSERT_EQ(pos[3 * i + std::size_t(c)], m.positions[i][c]);
+            ASSERT_EQ(nrm[3 * i + std::size_t(c)], m.normals[i][c]);
+            // glTF colours are linear: sRGB 0.5 is linear 0.214.
+            const float s = m.colors[i][c];
+            const float linear = s <= 0.04045f ? s / 12.92f : std::pow((s + 0.055f) / 1.055f, 2.4f);
+            ASSERT_NEAR(col[3 * i + std::size_t(c)], linear, 1e-6f);
+        }
+    const tinygltf::Accessor& pa = model.accessors.at(std::size_t(prim.attributes.at("POSITION")));
+    EXPECT_EQ(pa.minValues, (std::vector<double>{b.min.x, b.min.y, b.min.z}));
+    const tinygltf::Accessor& ia = model.accessors.at(std::size_t(prim.indices));
+    ASSERT_EQ(ia.componentType, TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT);
+    ASSERT_EQ(ia.count, 3 * m.triangles.size());
+    const auto* idx = reinterpret_cast<const std::uint32_t*>(
+        model.buffers[0].data.data() + model.bufferViews.at(std::size_t(ia.bufferView)).byteOffset);
+    for (std::size_t t = 0; t < m.triangles.size(); ++t)
+        for (int c = 0; c < 3; ++c) ASSERT_EQ(idx[3 * t + std::size_t(c)], m.triangles[t][c]);
+    EXPECT_THROW(mesh::readMesh(dir / "cow.glb"), IoError);  // an output format only, said clearly
 }
