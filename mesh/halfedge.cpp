@@ -1,5 +1,6 @@
 #include "mesh/halfedge.h"
 
+#include <initializer_list>
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
@@ -115,6 +116,36 @@ std::vector<std::vector<std::uint32_t>> HalfEdgeMesh::boundaryLoops() const {
     return loops;
 }
 
+void HalfEdgeMesh::setFace(std::uint32_t f, const glm::uvec3& t) {
+    faces_[f] = t;
+    for (std::uint32_t k = 0; k < 3; ++k) he_[3 * f + k] = {t[(k + 1) % 3], f, kNone};
+}
+
+void HalfEdgeMesh::link(std::uint32_t h, std::uint32_t t) {
+    he_[h].twin = t;
+    if (t != kNone) he_[t].twin = h;
+}
+
+void HalfEdgeMesh::refreshOutgoing(std::initializer_list<std::uint32_t> vertices,
+                                   std::initializer_list<std::uint32_t> faces) {
+    auto inFaces = [&](std::uint32_t h) {
+        for (std::uint32_t f : faces)
+            if (h / 3 == f) return true;
+        return false;
+    };
+    for (std::uint32_t v : vertices) {
+        if (out_[v] != kNone && !inFaces(out_[v])) continue;  // untouched: still outgoing, still preferred
+        std::uint32_t best = kNone;
+        for (std::uint32_t f : faces)
+            for (std::uint32_t k = 0; k < 3; ++k) {
+                const std::uint32_t h = 3 * f + k;
+                if (from(h) != v) continue;
+                if (best == kNone || (he_[h].twin == kNone && he_[best].twin != kNone)) best = h;
+            }
+        out_[v] = best;
+    }
+}
+
 bool HalfEdgeMesh::flip(std::uint32_t h) {
     const std::uint32_t t = he_[h].twin;
     if (t == kNone) return false;
@@ -122,9 +153,17 @@ bool HalfEdgeMesh::flip(std::uint32_t h) {
     if (c == d) return false;
     for (std::uint32_t w : oneRing(c))
         if (w == d) return false;  // the new edge exists already
-    faces_[he_[h].face] = {a, d, c};
-    faces_[he_[t].face] = {d, b, c};
-    build();
+    const std::uint32_t f = he_[h].face, g = he_[t].face;
+    // The four outer edges keep their twins across the change.
+    const std::uint32_t bc = he_[next(h)].twin, ca = he_[prev(h)].twin, ad = he_[next(t)].twin, db = he_[prev(t)].twin;
+    setFace(f, {a, d, c});  // a->d, d->c, c->a
+    setFace(g, {d, b, c});  // d->b, b->c, c->d
+    link(3 * f, ad);
+    link(3 * f + 1, 3 * g + 2);
+    link(3 * f + 2, ca);
+    link(3 * g, db);
+    link(3 * g + 1, bc);
+    refreshOutgoing({a, b, c, d}, {f, g});
     return true;
 }
 
@@ -133,15 +172,32 @@ std::uint32_t HalfEdgeMesh::split(std::uint32_t h) {
     const std::uint32_t a = from(h), b = he_[h].to, c = he_[next(h)].to;
     const auto m = static_cast<std::uint32_t>(positions_.size());
     positions_.push_back(0.5f * (positions_[a] + positions_[b]));
-    const std::uint32_t f = he_[h].face;
-    faces_[f] = {a, m, c};
-    faces_.push_back({m, b, c});
-    if (t != kNone) {
-        const std::uint32_t d = he_[next(t)].to, g = he_[t].face;
-        faces_[g] = {b, m, d};
-        faces_.push_back({m, a, d});
+    out_.push_back(kNone);
+    const std::uint32_t f = he_[h].face, bc = he_[next(h)].twin, ca = he_[prev(h)].twin;
+    const auto F = static_cast<std::uint32_t>(faces_.size());
+    faces_.emplace_back();
+    he_.resize(he_.size() + 3);
+    setFace(f, {a, m, c});  // a->m, m->c, c->a
+    setFace(F, {m, b, c});  // m->b, b->c, c->m
+    link(3 * f + 1, 3 * F + 2);
+    link(3 * f + 2, ca);
+    link(3 * F + 1, bc);
+    if (t == kNone) {
+        refreshOutgoing({a, b, c, m}, {f, F});
+        return m;
     }
-    build();
+    const std::uint32_t d = he_[next(t)].to, g = he_[t].face, ad = he_[next(t)].twin, db = he_[prev(t)].twin;
+    const std::uint32_t G = F + 1;
+    faces_.emplace_back();
+    he_.resize(he_.size() + 3);
+    setFace(g, {b, m, d});  // b->m, m->d, d->b
+    setFace(G, {m, a, d});  // m->a, a->d, d->m
+    link(3 * f, 3 * G);
+    link(3 * F, 3 * g);
+    link(3 * g + 1, 3 * G + 2);
+    link(3 * g + 2, db);
+    link(3 * G + 1, ad);
+    refreshOutgoing({a, b, c, d, m}, {f, F, g, G});
     return m;
 }
 

@@ -6,6 +6,7 @@
 /// several fans meet) with a report instead of corrupting itself.
 
 #include <cstdint>
+#include <initializer_list>
 #include <vector>
 
 #include "mesh/trimesh.h"
@@ -45,16 +46,20 @@ public:
 
     /// Flips the interior edge of half-edge h (two triangles a-b-c, b-a-d become a-d-c, d-b-c).
     /// Returns false (and changes nothing) on a boundary edge or when edge c-d already exists.
-    /// O(mesh size): the structure is rebuilt.
+    /// Local: O(valence of c) for the check, O(1) for the change (faces keep their indices).
     bool flip(std::uint32_t h);
-    /// Splits the edge of h at its midpoint: the triangles on either side become two each. Returns the
-    /// new vertex. O(mesh size): the structure is rebuilt.
+    /// Splits the edge of h at its midpoint: the triangles on either side become two each (the new
+    /// ones are appended). Returns the new vertex. Local: O(1).
     std::uint32_t split(std::uint32_t h);
 
     TriMesh toTriMesh() const;
 
 private:
     void build();
+    void setFace(std::uint32_t f, const glm::uvec3& t);  ///< the face and its three half-edges, unlinked
+    void link(std::uint32_t h, std::uint32_t t);         ///< makes h and t twins (t may be kNone)
+    /// Re-chooses the outgoing half-edge of vertices whose one was in the changed faces.
+    void refreshOutgoing(std::initializer_list<std::uint32_t> vertices, std::initializer_list<std::uint32_t> faces);
     /// An outgoing half-edge of v, the boundary one where there is one; kNone if v is isolated.
     std::uint32_t outgoing(std::uint32_t v) const { return out_[v]; }
     std::vector<glm::vec3> positions_;

@@ -1,6 +1,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <glm/common.hpp>
+
 #include <gtest/gtest.h>
 
 #include "core/error.h"
@@ -8,6 +10,7 @@
 #include "csg/scene.h"
 #include "csg/shapes.h"
 #include "implicit/primitives.h"
+#include "mesh/io.h"
 #include "test_util.h"
 #include "volume/marching_cubes.h"
 #include "volume/sample.h"
@@ -257,6 +260,31 @@ TEST(Csg, PolyhedronSignIgnoresFaceOrientationAndSelfIntersection) {
     EXPECT_LT(soup->value(glm::vec3(1.25f, 0.5f, 0.5f)), 0.f);
     EXPECT_GT(soup->value(glm::vec3(1.75f, 0.5f, 0.5f)), 0.f);
     EXPECT_NEAR(soup->value(glm::vec3(0.75f, 0.5f, 0.9f)), -0.1f, 1e-5f);  // distance to the nearest face
+}
+
+TEST(Csg, MeshFieldBatchSignsMatchPointSigns) {
+    // Batches take the sign of an earlier point whose surface-free ball holds them; that must agree with
+    // the winding number computed point by point, on 8^3 blocks along the cow's surface (its head
+    // self-intersects) at two voxel sizes.
+    mesh::TriMesh cow = mesh::readMesh(test::sourceDir() / "data/cow.obj");
+    auto f = csg::makeTriangleMeshField(cow.positions, cow.triangles);
+    std::size_t compared = 0, insideCount = 0;
+    for (float h : {0.004f, 0.02f})
+        for (std::size_t v = 0; v < cow.positions.size(); v += 97) {
+            std::vector<glm::vec3> block;
+            const glm::vec3 corner = glm::floor(cow.positions[v] / (8.f * h)) * (8.f * h);
+            for (int x = 0; x < 8; ++x)
+                for (int y = 0; y < 8; ++y)
+                    for (int z = 0; z < 8; ++z) block.push_back(corner + h * glm::vec3(x, y, z));
+            std::vector<float> batch(block.size());
+            f->values(block, batch);
+            for (std::size_t i = 0; i < block.size(); ++i) {
+                ASSERT_EQ(batch[i], f->value(block[i])) << "vertex " << v << " point " << i;
+                insideCount += batch[i] < 0;
+            }
+            compared += block.size();
+        }
+    EXPECT_GT(insideCount, compared / 10);  // the blocks straddle the surface
 }
 
 TEST(Csg, BatchValuesOfNestedTransformsMatchPointValues) {

@@ -1,5 +1,8 @@
 // The half-edge structure: rings and valences, boundary loops, flips and splits, and refusal of
 // non-manifold input.
+#include <algorithm>
+#include <random>
+
 #include <gtest/gtest.h>
 
 #include "mesh/halfedge.h"
@@ -90,5 +93,43 @@ TEST(HalfEdge, RefusesWhatItCannotHold) {
         FAIL() << "a pinched vertex must be refused";
     } catch (const std::invalid_argument& e) {
         EXPECT_NE(std::string(e.what()).find("several fans"), std::string::npos) << e.what();
+    }
+}
+
+TEST(HalfEdge, LocalFlipsAndSplitsMatchARebuild) {
+    // Thousands of random flips and splits on a closed mesh and an open one, applied locally; after
+    // each batch the structure must equal one built from scratch from the same triangles.
+    for (const mesh::TriMesh& start :
+         {mesh::makeIcosphere(2), mesh::readMesh(test::sharedData() / "meshes/bunny/bunny.ply")}) {
+        mesh::HalfEdgeMesh h(start);
+        std::mt19937 rng(5);
+        for (int batch = 0; batch < 6; ++batch) {
+            for (int i = 0; i < 300; ++i) {
+                const auto e = static_cast<std::uint32_t>(rng() % h.halfEdgeCount());
+                if (rng() % 3 == 0)
+                    h.split(e);
+                else
+                    h.flip(e);
+            }
+            const mesh::TriMesh now = h.toTriMesh();
+            const mesh::HalfEdgeMesh fresh(now);  // throws if the local edits broke manifoldness
+            ASSERT_EQ(fresh.halfEdgeCount(), h.halfEdgeCount());
+            for (std::uint32_t e = 0; e < h.halfEdgeCount(); ++e) {
+                ASSERT_EQ(h.halfEdge(e).to, fresh.halfEdge(e).to) << "half-edge " << e;
+                ASSERT_EQ(h.halfEdge(e).twin, fresh.halfEdge(e).twin) << "half-edge " << e;
+            }
+            for (std::uint32_t v = 0; v < h.vertexCount(); ++v) {
+                ASSERT_EQ(h.isBoundaryVertex(v), fresh.isBoundaryVertex(v)) << "vertex " << v;
+                auto r1 = h.oneRing(v), r2 = fresh.oneRing(v);
+                if (!h.isBoundaryVertex(v)) {  // interior rings may start anywhere
+                    std::sort(r1.begin(), r1.end());
+                    std::sort(r2.begin(), r2.end());
+                }
+                ASSERT_EQ(r1, r2) << "vertex " << v;
+            }
+            EXPECT_EQ(h.boundaryLoops().size(), fresh.boundaryLoops().size());
+        }
+        const mesh::MeshReport r = mesh::check(h.toTriMesh());
+        EXPECT_EQ(r.nonManifoldEdges + r.misorientedEdges, 0u);
     }
 }
