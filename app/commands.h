@@ -29,6 +29,7 @@ void addSubdivideCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addTessellateCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addSampleCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addVoxelizeCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
+void addConvertCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addSliceCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addShapesCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addCheckSceneCommand(CLI::App& app, const GlobalOptions& g, Commands& c);

@@ -12,6 +12,7 @@
 
 #include "app/commands.h"
 #include "app/field_input.h"
+#include "app/volume_input.h"
 #include "core/error.h"
 #include "core/progress.h"
 #include "csg/scene.h"
@@ -20,6 +21,7 @@
 #include "render/grid_march.h"
 #include "render/image.h"
 #include "render/ray_march.h"
+#include "render/volume_views.h"
 #include "volume/marching_cubes.h"
 #include "volume/sample.h"
 #include "volume/vdb_io.h"
@@ -108,6 +110,10 @@ std::pair<int, int> parseSize(const std::string& s) {
 void addRenderCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
     struct Args {
         std::string input, output, method = "auto", size = "1024x768", grid, aov, inside = "auto";
+        std::string mip, preset, tf, colors;
+        bool volume = false, voxels = false;
+        float window = 0.f, level = 0.f;
+        VolumeInput vin;
         std::vector<std::string> iso;
         int spp = 1, ao = 0;
         bool cameraAuto = false, noShadows = false, orthographic = false;
@@ -141,6 +147,19 @@ void addRenderCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
     cmd->add_flag("--no-shadows", a->noShadows, "No shadow rays");
     cmd->add_option("--ao", a->ao, "Ambient-occlusion rays per hit (default 0: off)")->check(CLI::Range(0, 256));
     addFieldOptions(cmd, a->field, true);
+    auto* med = cmd->add_option_group("Medical volumes (NIfTI, NRRD, MetaImage, DICOM, raw)");
+    med->add_option("--mip", a->mip, "Maximum intensity projection along axial, coronal or sagittal")
+        ->check(CLI::IsMember({"axial", "coronal", "sagittal"}));
+    med->add_flag("--volume", a->volume, "Emission-absorption volume rendering with a transfer function");
+    med->add_option("--preset", a->preset, "Transfer function for --volume: ct-bone (default), ct-soft, mr")
+        ->check(CLI::IsMember({"ct-bone", "ct-soft", "mr"}));
+    med->add_option("--tf", a->tf,
+                    "Transfer function for --volume as control points 'V:R,G,B,A ...' (colour 0-1, A opacity per mm)");
+    med->add_flag("--voxels", a->voxels, "Label voxels drawn as cubes (exact ray-voxel traversal)");
+    med->add_option("--colors", a->colors, "Label colours for --voxels (a .lut, ITK-SNAP, Slicer or text table)");
+    med->add_option("--window", a->window, "--mip: window width (default: the whole range)");
+    med->add_option("--level", a->level, "--mip: window centre");
+    addVolumeReadOptions(cmd, a->vin);
     cmd->callback([&c, &g, a] {
         c.run = [&g, a] {
             using Clock = std::chrono::steady_clock;
@@ -184,6 +203,34 @@ void addRenderCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
             std::vector<render::IsoLayer> layers;
             for (const auto& s : a->iso) layers.push_back(parseIsoLayer(s));
 
+            // Medical volumes: a projection, a volume rendering, voxels, or iso-surfaces (meshed).
+            const bool dense = isDenseVolumeFile(a->input);
+            if ((!a->mip.empty() || a->volume || a->voxels) && !dense)
+                throw CLI::ValidationError("input",
+                                           "--mip, --volume and --voxels take a volume file (NIfTI, NRRD, "
+                                           "MetaImage, DICOM directory, raw)");
+            if (int(!a->mip.empty()) + int(a->volume) + int(a->voxels) > 1)
+                throw CLI::ValidationError("--mip", "choose one of --mip, --volume and --voxels");
+            volume::DenseVolume vol;
+            if (dense) vol = loadVolume(a->input, a->vin, g);
+            if (!a->mip.empty()) {
+                render::SliceLook sl;
+                sl.wl = {a->window, a->level};
+                const auto t1 = Clock::now();
+                const render::Image img = render::maximumIntensityProjection(vol, render::parseAnatomical(a->mip), sl);
+                render::writeImage(a->output, img);
+                if (!g.quiet)
+                    std::printf("maximum intensity projection (%s) %dx%d in %.3f s -> %s\n", a->mip.c_str(), img.width,
+                                img.height, std::chrono::duration<double>(Clock::now() - t1).count(),
+                                a->output.c_str());
+                return 0;
+            }
+            if (a->volume || a->voxels) {
+                method = a->volume ? "volume" : "voxels";
+                bounds = render::volumeBounds(vol);
+                what = a->input;
+            }
+
             const bool meshInput = !a->input.empty() && mesh::isReadableMeshPath(a->input) && a->field.shape.empty() &&
                                    a->field.expr.empty();
             if (meshInput) {
@@ -223,10 +270,17 @@ void addRenderCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                     const mesh::TriMesh m = volume::extractIsosurface(*sampled, mo);
                     meshes = splitByMaterial(m, *field, materials);
                 }
+            } else if (method == "volume" || method == "voxels") {
+                // rendered from the dense volume below
             } else {
                 if (a->input.empty()) throw CLI::ValidationError("input", "give a file, --shape or --expr");
-                grid = volume::readFloatGrid(a->input, a->grid.empty() ? std::nullopt : std::optional(a->grid));
-                what = "grid '" + grid->getName() + "'";
+                if (dense) {
+                    grid = volumeGrid(vol, a->vin, 0, prog);
+                    if (method == "auto") method = "mesh";  // any spacing and orientation; the marcher wants cubes
+                } else {
+                    grid = volume::readFloatGrid(a->input, a->grid.empty() ? std::nullopt : std::optional(a->grid));
+                }
+                what = dense ? a->input : "grid '" + grid->getName() + "'";
                 if (layers.empty()) layers.push_back({});
                 const openvdb::CoordBBox ab = grid->evalActiveVoxelBoundingBox();
                 if (!ab.empty()) {
@@ -259,7 +313,9 @@ void addRenderCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
             if (!haveCamera || a->cameraAuto) {
                 const implicit::Box3 frameOf =
                     bounds.isEmpty() ? implicit::Box3{glm::vec3(-1.f), glm::vec3(1.f)} : bounds;
-                look.camera = render::frameBox(frameOf, aspect);
+                // Volumes from scanners: seen from the front (anterior), head up, the patient's left on the right.
+                look.camera = dense ? render::frameBox(frameOf, aspect, glm::vec3(0.f, 1.f, 0.f))
+                                    : render::frameBox(frameOf, aspect);
             }
             if (!a->eye.empty()) look.camera.eye = glm::vec3(a->eye[0], a->eye[1], a->eye[2]);
             if (!a->target.empty()) look.camera.target = glm::vec3(a->target[0], a->target[1], a->target[2]);
@@ -270,7 +326,25 @@ void addRenderCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
 
             render::RenderStats st;
             render::Frame frame;
-            if (method == "mesh") {
+            if (method == "volume") {
+                render::TransferFunction tf;
+                const auto [lo, hi] = vol.range();
+                if (!a->tf.empty()) {
+                    try {
+                        tf = render::parseTransferFunction(a->tf);
+                    } catch (const std::invalid_argument& e) {
+                        throw CLI::ValidationError("--tf", e.what());
+                    }
+                } else {
+                    tf = render::transferPreset(
+                        a->preset.empty() ? (vol.modality == "MR" ? "mr" : "ct-bone") : a->preset, lo, hi);
+                }
+                frame = render::renderVolume(vol, tf, look, opt, &st);
+            } else if (method == "voxels") {
+                volume::LabelTable table;
+                if (!a->colors.empty()) table = volume::readLabelTable(a->colors);
+                frame = render::renderVoxels(vol, table, look, opt, &st);
+            } else if (method == "mesh") {
                 std::vector<render::MeshObject> objs;
                 for (std::size_t i = 0; i < meshes.size(); ++i) objs.push_back({&meshes[i], materials[i], true});
                 frame = render::renderMeshes(objs, look, opt, &st);
@@ -290,7 +364,11 @@ void addRenderCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                 std::printf(
                     "rendered %s (%s%s) at %dx%d, %d spp: %.2f Mrays/s, %s of %s pixels hit, %.2f s "
                     "(%.2f s total) -> %s\n",
-                    what.c_str(), method == "mesh" ? "Embree, " : "ray marching",
+                    what.c_str(),
+                    method == "mesh"     ? "Embree, "
+                    : method == "volume" ? "volume rendering"
+                    : method == "voxels" ? "voxels"
+                                         : "ray marching",
                     method == "mesh" ? (withCommas(tris) + " triangles").c_str() : "", opt.width, opt.height, opt.spp,
                     double(st.primaryRays) / st.seconds / 1e6, withCommas(st.hitPixels).c_str(),
                     withCommas(frame.pixels()).c_str(), st.seconds,

@@ -8,6 +8,7 @@
 #include <tbb/parallel_for.h>
 
 #include "app/field_input.h"
+#include "app/volume_input.h"
 #include "core/error.h"
 #include "csg/scene.h"
 #include "implicit/quadric.h"
@@ -16,6 +17,9 @@
 #include "mesh/io.h"
 #include "render/image.h"
 #include "render/slice.h"
+#include "render/volume_views.h"
+#include "volume/dense_grid.h"
+#include "volume/labels.h"
 #include "volume/marching_cubes.h"
 #include "volume/sample.h"
 #include "volume/vdb_io.h"
@@ -49,10 +53,20 @@ void addInfoCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
     auto* cmd =
         app.add_subcommand("info", "Describe the grids of volume files: types, voxel size, active voxels, bounds");
     auto files = std::make_shared<std::vector<std::string>>();
-    cmd->add_option("files", *files, "Volume files (.vdb)")->required();
-    cmd->callback([&c, files] {
-        c.run = [files] {
+    auto vin = std::make_shared<VolumeInput>();
+    cmd->add_option("files", *files,
+                    "Volume files: .vdb, NIfTI (.nii .nii.gz), NRRD (.nrrd .nhdr), MetaImage (.mha .mhd), a DICOM "
+                    "directory, or .raw with --dims and --type")
+        ->required();
+    addVolumeReadOptions(cmd, *vin);
+    cmd->callback([&c, files, vin] {
+        c.run = [files, vin] {
             for (const std::string& f : *files) {
+                if (isDenseVolumeFile(f)) {
+                    const volume::DenseVolume v = loadVolume(f, *vin, GlobalOptions{0, true});
+                    std::cout << describeVolume(f, v);
+                    continue;
+                }
                 requireVdb(f);
                 openvdb::GridPtrVec grids = volume::readVdb(f);
                 std::cout << f << ": " << grids.size() << (grids.size() == 1 ? " grid\n" : " grids\n");
@@ -68,9 +82,15 @@ namespace {
 /// A grid from a volume file, or sampled from a field; prints what it did unless quiet.
 openvdb::FloatGrid::Ptr loadOrSample(const std::string& input, const std::string& gridName, const FieldInput& fin,
                                      const GlobalOptions& g, Progress* progress, bool printStats,
-                                     implicit::FieldPtr* fieldOut = nullptr) {
+                                     implicit::FieldPtr* fieldOut = nullptr, const VolumeInput* vin = nullptr,
+                                     int smooth = 0) {
     if (!namesField(input, fin)) {
         if (input.empty()) throw CLI::ValidationError("input", "give a volume file, a .vm model, --shape or --expr");
+        if (isDenseVolumeFile(input)) {
+            const VolumeInput none;
+            const volume::DenseVolume v = loadVolume(input, vin ? *vin : none, g);
+            return volumeGrid(v, vin ? *vin : none, smooth, progress);
+        }
         requireVdb(input);
         return volume::readFloatGrid(input, gridName.empty() ? std::nullopt : std::optional(gridName));
     }
@@ -98,19 +118,91 @@ openvdb::FloatGrid::Ptr loadOrSample(const std::string& input, const std::string
 
 }  // namespace
 
+namespace {
+
+/// `mesh --labels`: one closed, coloured surface per label of a label map.
+int meshLabels(const std::string& input, const std::string& output, const std::string& colors, bool split,
+               const VolumeInput& vin, const GlobalOptions& g, bool ascii) {
+    if (!mesh::isMeshPath(output))
+        throw CLI::ValidationError("--output", output + ": expected a .ply, .obj, .stl or .glb file name");
+    if (!isDenseVolumeFile(input)) throw CLI::ValidationError("--labels", "--labels needs a label volume file");
+    volume::LabelTable table;
+    if (!colors.empty()) table = volume::readLabelTable(colors);
+    const volume::DenseVolume v = loadVolume(input, vin, g);
+    TerminalProgress progress;
+    const auto t0 = std::chrono::steady_clock::now();
+    std::vector<volume::LabelSurface> surfaces = volume::labelSurfaces(v, g.quiet ? nullptr : &progress);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    mesh::TriMesh all;
+    std::size_t open = 0, inTable = 0;
+    const std::filesystem::path out(output);
+    for (volume::LabelSurface& s : surfaces) {
+        auto it = table.find(s.label);
+        const bool known = it != table.end();
+        inTable += known;
+        const std::array<float, 3> col =
+            known && it->second.hasColor ? it->second.color : volume::defaultLabelColor(s.label);
+        s.mesh.colors.assign(s.mesh.positions.size(), glm::vec3(col[0], col[1], col[2]));
+        const mesh::MeshReport r = mesh::check(s.mesh);
+        open += !r.isValidClosedSurface();
+        if (split) {
+            std::string name = known && !it->second.name.empty() ? it->second.name : "label";
+            for (char& ch : name)
+                if (!std::isalnum(static_cast<unsigned char>(ch)) && ch != '-' && ch != '_') ch = '_';
+            const auto file = out.parent_path() / (out.stem().string() + "_" + std::to_string(s.label) + "_" + name +
+                                                   out.extension().string());
+            mesh::writeMesh(file, s.mesh, {ascii});
+        }
+        const auto base = static_cast<std::uint32_t>(all.positions.size());
+        all.positions.insert(all.positions.end(), s.mesh.positions.begin(), s.mesh.positions.end());
+        all.colors.insert(all.colors.end(), s.mesh.colors.begin(), s.mesh.colors.end());
+        for (const glm::uvec3& t : s.mesh.triangles) all.triangles.push_back(t + glm::uvec3(base));
+    }
+    mesh::writeMesh(output, all, {ascii});
+    if (!g.quiet) {
+        std::printf(
+            "meshed %zu labels (%zu named in %s) in %.3f s: %s vertices, %s triangles, %s -> %s\n", surfaces.size(),
+            inTable, colors.empty() ? "no table" : colors.c_str(), seconds, withCommas(all.vertexCount()).c_str(),
+            withCommas(all.triangleCount()).c_str(),
+            open == 0 ? "every label closed and manifold" : (std::to_string(open) + " labels NOT closed").c_str(),
+            output.c_str());
+        if (split)
+            std::printf("and one file per label: %s_LABEL_NAME%s\n", (out.parent_path() / out.stem()).c_str(),
+                        out.extension().c_str());
+    }
+    return open == 0 ? 0 : 1;
+}
+
+}  // namespace
+
 void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
     struct Args {
-        std::string input, output, grid, inside = "auto";
+        std::string input, output, grid, inside = "auto", colors;
         float iso = 0.f;
-        bool normals = false, indexSpace = false, ascii = false, stats = false;
+        int smooth = 0;
+        bool normals = false, indexSpace = false, ascii = false, stats = false, labels = false, split = false;
         FieldInput field;
+        VolumeInput volume;
     };
     auto a = std::make_shared<Args>();
     auto* cmd =
         app.add_subcommand("mesh", "Extract an iso-surface from a volume or an implicit field as a triangle mesh");
     cmd->add_option("input", a->input,
-                    "Volume (.vdb), scene (.isf, OpenSCAD .csg) or implicit model (.vm); or --shape / --expr");
+                    "Volume (.vdb, .nii/.nii.gz, .nrrd/.nhdr, .mha/.mhd, a DICOM directory, .raw), scene (.isf, "
+                    "OpenSCAD .csg) or implicit model (.vm); or --shape / --expr");
     addFieldOptions(cmd, a->field, true);
+    addVolumeReadOptions(cmd, a->volume);
+    cmd->add_option("--smooth", a->smooth,
+                    "Volumes: Gaussian smoothing passes before meshing (OpenVDB filter, width 1), for noisy scans")
+        ->check(CLI::Range(0, 20));
+    cmd->add_option("--tolerance", a->volume.tolerance,
+                    "Volumes: values within this of the minimum are left out of the sparse grid (default 0)");
+    cmd->add_flag("--labels", a->labels,
+                  "Label map: one closed surface per label (integer value), coloured from --colors");
+    cmd->add_option("--colors", a->colors,
+                    "Label colours/names: a .lut (768 bytes), an ITK-SNAP or Slicer table, or 'index name r g b' "
+                    "lines");
+    cmd->add_flag("--split", a->split, "With --labels: one file per label (NAME_LABEL.ext beside -o) as well");
     cmd->add_option("-o,--output", a->output,
                     "Mesh file: .ply (binary; --ascii for text), .obj, .stl or .glb (glTF, with vertex colours)")
         ->required();
@@ -130,9 +222,12 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
             using Clock = std::chrono::steady_clock;
             const auto t0 = Clock::now();
             TerminalProgress progress;
+            if (a->labels) return meshLabels(a->input, a->output, a->colors, a->split, a->volume, g, a->ascii);
+            if (!a->colors.empty() || a->split)
+                throw CLI::ValidationError("--colors", "--colors and --split go with --labels");
             implicit::FieldPtr field;
-            openvdb::FloatGrid::Ptr grid =
-                loadOrSample(a->input, a->grid, a->field, g, g.quiet ? nullptr : &progress, a->stats, &field);
+            openvdb::FloatGrid::Ptr grid = loadOrSample(a->input, a->grid, a->field, g, g.quiet ? nullptr : &progress,
+                                                        a->stats, &field, &a->volume, a->smooth);
             const double readSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
 
             volume::MeshingOptions opt;
@@ -188,6 +283,67 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
 }  // namespace isoforge::app
 
 namespace isoforge::app {
+
+void addConvertCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
+    struct Args {
+        std::string input, output;
+        std::optional<float> background;
+        VolumeInput volume;
+    };
+    auto a = std::make_shared<Args>();
+    auto* cmd = app.add_subcommand(
+        "convert",
+        "Convert a volume (NIfTI, NRRD, MetaImage, DICOM directory, raw, .vdb) to a sparse .vdb or to NIfTI");
+    cmd->add_option("input", a->input, "Volume file or DICOM directory")->required();
+    cmd->add_option("-o,--output", a->output, "Output: .vdb (sparse, background culled), .nii or .nii.gz")->required();
+    cmd->add_option("--background", a->background, "Value left out of the sparse grid (default: the minimum)");
+    cmd->add_option("--tolerance", a->volume.tolerance,
+                    "Values within this of the background are culled too (default 0: exact)");
+    addVolumeReadOptions(cmd, a->volume);
+    cmd->callback([&c, &g, a] {
+        c.run = [&g, a] {
+            std::string out = a->output;
+            for (char& ch : out) ch = char(std::tolower(static_cast<unsigned char>(ch)));
+            const bool toVdb = out.size() > 4 && out.compare(out.size() - 4, 4, ".vdb") == 0;
+            const bool toNifti = (out.size() > 4 && out.compare(out.size() - 4, 4, ".nii") == 0) ||
+                                 (out.size() > 7 && out.compare(out.size() - 7, 7, ".nii.gz") == 0);
+            if (!toVdb && !toNifti)
+                throw CLI::ValidationError("--output", a->output + ": expected a .vdb, .nii or .nii.gz file name");
+            std::string ext = std::filesystem::path(a->input).extension().string();
+            const volume::DenseVolume v =
+                ext == ".vdb" ? volume::toDense(*volume::readFloatGrid(a->input)) : loadVolume(a->input, a->volume, g);
+            const auto t0 = std::chrono::steady_clock::now();
+            if (toNifti) {
+                volume::writeNifti(a->output, v);
+                if (!g.quiet)
+                    std::printf("wrote NIfTI-1 (float32, sform and qform in RAS) in %.3f s -> %s\n",
+                                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
+                                a->output.c_str());
+                return 0;
+            }
+            TerminalProgress progress;
+            volume::ToGridOptions o;
+            o.background = a->background;
+            o.tolerance = a->volume.tolerance;
+            o.progress = g.quiet ? nullptr : &progress;
+            openvdb::FloatGrid::Ptr grid = volume::toGrid(v, o);
+            grid->setName("volume");
+            volume::writeVdb(a->output, {grid});
+            if (!g.quiet) {
+                const double dense = double(v.voxelCount()) * 4.0;
+                std::printf(
+                    "converted %s voxels to a sparse grid: %s active (%.1f%%), %s in memory vs %s dense, "
+                    "background %g, in %.3f s -> %s\n",
+                    withCommas(v.voxelCount()).c_str(), withCommas(grid->activeVoxelCount()).c_str(),
+                    100.0 * double(grid->activeVoxelCount()) / double(v.voxelCount()),
+                    (withCommas(grid->memUsage() >> 20) + " MiB").c_str(),
+                    (withCommas(std::uint64_t(dense) >> 20) + " MiB").c_str(), double(grid->background()),
+                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), a->output.c_str());
+            }
+            return 0;
+        };
+    });
+}
 
 void addVoxelizeCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
     struct Args {
@@ -269,15 +425,31 @@ void addSampleCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
 
 void addSliceCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
     struct Args {
-        std::string input, output, plane = "z=0";
+        std::string input, output, plane = "z=0", axis, colormap = "grey", colors;
         std::vector<float> range{-1.f, 1.f};
         int size = 1024;
+        std::int64_t index = -1;
+        float window = 0.f, level = 0.f;
         bool sign = false;
         FieldInput field;
+        VolumeInput volume;
     };
     auto a = std::make_shared<Args>();
-    auto* cmd = app.add_subcommand("slice", "Render a planar slice of an implicit field to an image");
-    cmd->add_option("input", a->input, "Scene (.isf, .csg) or implicit model (.vm); or use --shape / --expr");
+    auto* cmd = app.add_subcommand(
+        "slice", "Image a slice of a volume (axial, coronal, sagittal; window/level) or a planar slice of a field");
+    cmd->add_option("input", a->input,
+                    "Volume (.nii .nrrd .mha .vdb, a DICOM directory, .raw), scene (.isf, .csg) or implicit model "
+                    "(.vm); or use --shape / --expr");
+    auto* vol = cmd->add_option_group("Volumes");
+    vol->add_option("--axis", a->axis, "axial, coronal or sagittal (radiological display: patient left on the right)")
+        ->check(CLI::IsMember({"axial", "coronal", "sagittal"}));
+    vol->add_option("--index", a->index, "Slice number along that axis (default: the middle one)");
+    vol->add_option("--window", a->window, "Window width (e.g. 400 for CT soft tissue; default: the whole range)");
+    vol->add_option("--level", a->level, "Window centre (e.g. 40 HU)");
+    vol->add_option("--colormap", a->colormap, "grey (default), hot, bone, viridis, or labels (with --colors)")
+        ->check(CLI::IsMember({"grey", "hot", "bone", "viridis", "labels"}));
+    vol->add_option("--colors", a->colors, "Label colours for --colormap labels");
+    addVolumeReadOptions(cmd, a->volume);
     cmd->add_option("-o,--output", a->output, "Image file (.png .jpg .tif .exr)")->required();
     cmd->add_option("--plane", a->plane, "The plane: x=V, y=V or z=V (default z=0)");
     cmd->add_option("--range", a->range, "In-plane range lo,hi of both axes (default -1,1)")
@@ -288,6 +460,35 @@ void addSliceCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
     addFieldOptions(cmd, a->field, false);
     cmd->callback([&c, &g, a] {
         c.run = [&g, a] {
+            std::string vext = std::filesystem::path(a->input).extension().string();
+            if (isDenseVolumeFile(a->input) || (!a->axis.empty() && vext == ".vdb")) {
+                const volume::DenseVolume v = vext == ".vdb" ? volume::toDense(*volume::readFloatGrid(a->input))
+                                                             : loadVolume(a->input, a->volume, g);
+                const render::Anatomical view = render::parseAnatomical(a->axis.empty() ? "axial" : a->axis);
+                const render::ViewAxes va = render::viewAxes(v, view);
+                const std::int64_t n = v.dims[std::size_t(va.slice)];
+                const std::int64_t index = a->index >= 0 ? a->index : n / 2;
+                if (index >= n)
+                    throw CLI::ValidationError("--index", "slice " + std::to_string(index) + " of a volume with " +
+                                                              std::to_string(n) + " " +
+                                                              (a->axis.empty() ? "axial" : a->axis) + " slices (0.." +
+                                                              std::to_string(n - 1) + ")");
+                volume::LabelTable table;
+                if (!a->colors.empty()) table = volume::readLabelTable(a->colors);
+                render::SliceLook look;
+                look.wl = {a->window, a->level};
+                look.colormap = a->colors.empty() ? a->colormap : "labels";
+                look.labels = &table;
+                const render::Image img = render::sliceVolume(v, view, index, look);
+                render::writeImage(a->output, img);
+                if (!g.quiet)
+                    std::printf("%s slice %lld of %lld (index axis %c) at %dx%d pixels of %.3g mm -> %s\n",
+                                a->axis.empty() ? "axial" : a->axis.c_str(), (long long)index, (long long)n,
+                                "ijk"[va.slice], img.width, img.height,
+                                std::min(v.spacing()[va.right], v.spacing()[va.down]), a->output.c_str());
+                return 0;
+            }
+            if (!a->axis.empty()) throw CLI::ValidationError("--axis", "--axis slices volume files");
             render::SliceOptions so;
             const std::string& p = a->plane;
             if (p.size() < 3 || (p[0] != 'x' && p[0] != 'y' && p[0] != 'z') || p[1] != '=')

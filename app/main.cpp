@@ -55,6 +55,7 @@ int main(int argc, char** argv) {
     app::addTessellateCommand(app, global, commands);
     app::addSampleCommand(app, global, commands);
     app::addVoxelizeCommand(app, global, commands);
+    app::addConvertCommand(app, global, commands);
     app::addRenderCommand(app, global, commands);
     app::addSliceCommand(app, global, commands);
     app::addShapesCommand(app, global, commands);

@@ -24,6 +24,29 @@ find_package(CLI11 REQUIRED CONFIG)                   # CLI11::CLI11
 find_package(meshoptimizer REQUIRED CONFIG)           # meshoptimizer::meshoptimizer (triangle strips)
 find_package(TinyGLTF REQUIRED CONFIG)                # TinyGLTF::TinyGLTF (.glb output)
 
+# Medical image formats (docs/volumes.md): niftilib (NIfTI-1/2), GDCM (DICOM), teem (NRRD), zlib (MetaImage).
+# Debian 12's CMake configs of all three name files their -dev packages do not install (tools, VTK
+# wrappers, static libraries), so they are found by hand.
+find_package(ZLIB REQUIRED)
+find_path(NIFTI_INCLUDE_DIR nifti2_io.h PATH_SUFFIXES nifti REQUIRED)
+find_library(NIFTI2_LIBRARY nifti2 REQUIRED)
+find_library(ZNZ_LIBRARY znz REQUIRED)
+find_path(GDCM_INCLUDE_DIR gdcmImageReader.h PATH_SUFFIXES gdcm-3.0 REQUIRED)
+foreach(_lib gdcmMSFF gdcmDSED gdcmDICT gdcmIOD gdcmCommon)
+  find_library(${_lib}_LIBRARY ${_lib} REQUIRED)
+  list(APPEND GDCM_LIBRARIES ${${_lib}_LIBRARY})
+endforeach()
+find_path(TEEM_INCLUDE_DIR teem/nrrd.h REQUIRED)
+find_library(TEEM_LIBRARY teem PATHS /usr/lib REQUIRED)
+add_library(isoforge_medical_formats INTERFACE)
+add_library(isoforge::medical_formats ALIAS isoforge_medical_formats)
+# nifti2_io.h includes <znzlib.h> from its own directory; teem's headers live in /usr/include/teem, which
+# is included as <teem/nrrd.h> (adding /usr/include itself as a system directory breaks #include_next).
+target_include_directories(isoforge_medical_formats SYSTEM INTERFACE ${NIFTI_INCLUDE_DIR} ${GDCM_INCLUDE_DIR})
+target_compile_definitions(isoforge_medical_formats INTERFACE HAVE_ZLIB)
+target_link_libraries(isoforge_medical_formats INTERFACE ${NIFTI2_LIBRARY} ${ZNZ_LIBRARY} ${GDCM_LIBRARIES}
+                                                         ${TEEM_LIBRARY} ZLIB::ZLIB)
+
 if(ISOFORGE_BUILD_TESTS)
   find_package(GTest REQUIRED)                        # GTest::gtest_main
 endif()

@@ -660,6 +660,13 @@ void extractIsosurface(const openvdb::FloatGrid& grid, const MeshingOptions& opt
         extract<true>(grid, options, out, local);
     else
         extract<false>(grid, options, out, local);
+    // A transform that mirrors (negative determinant, as medical volumes with a flipped axis have) turns
+    // counter-clockwise index-space triangles clockwise in world space: rewind them so normals stay outward.
+    if (options.worldSpace && grid.transform().isLinear()) {
+        const openvdb::Mat3d m = grid.transform().baseMap()->getAffineMap()->getMat4().getMat3();
+        if (m.det() < 0)
+            for (glm::uvec3& t : out.triangles) std::swap(t.y, t.z);
+    }
     if (stats) *stats = local;
 }
 

@@ -1,0 +1,41 @@
+#pragma once
+/// @file Volume files on the command line: the raw-voxel and DICOM options, loading with a summary,
+/// and the description `isoforge info` prints.
+
+#include <string>
+#include <vector>
+
+#include <openvdb/openvdb.h>
+#include <CLI/CLI.hpp>
+
+#include "app/commands.h"
+#include "core/progress.h"
+#include "volume/dense_volume.h"
+
+namespace isoforge::app {
+
+struct VolumeInput {
+    std::vector<std::int64_t> dims;
+    std::vector<double> spacing;
+    std::string type, endian = "little", series;
+    std::uint64_t offset = 0;
+    float tolerance = 0.f;
+};
+
+/// --dims, --type, --spacing, --endian, --offset (raw voxels), --series (DICOM).
+void addVolumeReadOptions(CLI::App* cmd, VolumeInput& in);
+
+/// True for volume files other than .vdb (medical formats, raw, a DICOM directory).
+bool isDenseVolumeFile(const std::string& path);
+
+/// Reads the volume; prints a line (format, dims, spacing, orientation, range, time) unless quiet.
+volume::DenseVolume loadVolume(const std::string& path, const VolumeInput& in, const GlobalOptions& g);
+
+/// A sparse grid of the volume (background: its minimum, culled within --tolerance), Gaussian-smoothed
+/// `smooth` times (OpenVDB's filter, width 1) when asked.
+openvdb::FloatGrid::Ptr volumeGrid(const volume::DenseVolume& v, const VolumeInput& in, int smooth, Progress* progress);
+
+/// What `isoforge info` prints about a dense volume.
+std::string describeVolume(const std::string& path, const volume::DenseVolume& v);
+
+}  // namespace isoforge::app

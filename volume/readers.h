@@ -1,0 +1,35 @@
+#pragma once
+/// @file Internal to volume/: the format readers behind readVolume, and helpers they share.
+
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "volume/dense_volume.h"
+
+namespace isoforge::volume::detail {
+
+DenseVolume readNifti(const std::filesystem::path& path);
+DenseVolume readNrrd(const std::filesystem::path& path);
+DenseVolume readMetaImage(const std::filesystem::path& path);
+DenseVolume readDicomSeries(const std::filesystem::path& dir, const std::string& series);
+DenseVolume readRaw(const std::filesystem::path& path, const VolumeReadOptions& o);
+DenseVolume readVdbVolume(const std::filesystem::path& path, const std::string& grid);
+
+/// Refuses volumes whose float copy would not fit in half of this machine's memory, with the estimate.
+void checkVolumeSize(const std::filesystem::path& path, const std::array<std::int64_t, 3>& dims);
+
+/// Bytes per voxel of a type name ("uint8", "int16", ..., "float64"); 0 for an unknown name.
+std::size_t typeSize(const std::string& type);
+
+/// Converts `count` stored voxels of `type` (with the given byte order) to float, into `out`.
+void convertVoxels(const void* data, const std::string& type, bool bigEndian, std::size_t count, float* out);
+
+/// Inflates a zlib or gzip stream that must hold exactly `expected` bytes.
+/// @throw IoError if it is cut short ("truncated") or corrupt, naming `path`.
+std::vector<char> inflateExactly(const std::filesystem::path& path, const char* data, std::size_t size,
+                                 std::size_t expected);
+
+}  // namespace isoforge::volume::detail
