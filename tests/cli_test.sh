@@ -185,5 +185,45 @@ expect_exit 0 "mesh to .glb" "$bin" mesh "$src/data/sphere.vdb" -o "$tmp/sphere.
 expect_exit 1 ".glb is not an input" "$bin" check "$tmp/sphere.glb"
 grep -q "output format" "$tmp/err" && ok || bad ".glb input refused clearly"
 
+# Medical volumes (the command lines of issue #6, on the shared data)
+vols=$shared/volumes
+if [ -d "$vols" ]; then
+    ct=$vols/ct-abdomen-dicom/series
+    expect_exit 0 "info of a DICOM series" "$bin" info "$ct"
+    grep -q "512 x 512 x 48" "$tmp/out" && grep -q "1.07422 x 1.07422 x 3 mm" "$tmp/out" && grep -q "HU" "$tmp/out" \
+        && ok || bad "DICOM info: dims, spacing, HU"
+    expect_exit 0 "bone from a DICOM directory" "$bin" mesh "$ct" --iso 300 --smooth 1 -o "$tmp/bone.ply"
+    expect_exit 0 "bone is closed" "$bin" check --strict "$tmp/bone.ply"
+    expect_exit 0 "atlas labels" "$bin" mesh "$vols/colin27-mri-atlases/aal.nii.gz" --labels --colors "$vols/colin27-mri-atlases/aal.nii.lut" -o "$tmp/atlas.ply"
+    grep -q "meshed 116 labels.*every label closed" "$tmp/out" && ok || bad "116 AAL labels, all closed"
+    grep -q "property uchar red" "$tmp/atlas.ply" && ok || bad "atlas.ply has vertex colours"
+    expect_exit 0 "frog labels, one file each" "$bin" mesh "$vols/frog-tissue-labels/frogtissue.mhd" --labels --colors "$vols/frog-tissue-labels/frog_tissue_labels.txt" --split -o "$tmp/frog.glb"
+    [ -s "$tmp/frog_13_skeleton.glb" ] && ok || bad "frog skeleton file"
+    expect_exit 0 "bone under translucent skin" "$bin" render "$vols/headsq-ct-nrrd/quarter.nhdr" --iso 1150:ivory --iso 500:skin:0.35 -o "$tmp/head.png" --size 320x240
+    expect_exit 0 "negative iso-value" "$bin" render "$ct" --iso 300:ivory --iso -300:skin:0.35 -o "$tmp/ct.png" --size 160x120
+    expect_exit 0 "MIP" "$bin" render "$vols/colin27-mri-atlases/ch2.nii.gz" --mip axial -o "$tmp/mip.png"
+    grep -q "181x217" "$tmp/out" && ok || bad "axial MIP of 181 x 217"
+    expect_exit 0 "volume rendering" "$bin" render "$ct" --volume --preset ct-bone -o "$tmp/vr.png" --size 160x120
+    expect_exit 0 "voxels" "$bin" render "$vols/frog-tissue-labels/frogtissue.mhd" --voxels -o "$tmp/voxels.png" --size 160x120
+    expect_exit 0 "CT slice with window/level" "$bin" slice "$ct" --axis axial --index 24 --window 400 --level 40 -o "$tmp/slice.png"
+    expect_exit 2 "slice out of range" "$bin" slice "$ct" --axis axial --index 48 -o "$tmp/bad_slice.png"
+    grep -q "0..47" "$tmp/err" && ok || bad "slice range in the error"
+    [ ! -e "$tmp/bad_slice.png" ] && ok || bad "no image from a bad slice"
+    expect_exit 0 "convert to vdb" "$bin" convert "$vols/headsq-ct-nrrd/quarter.nhdr" -o "$tmp/head.vdb"
+    expect_exit 0 "mesh the converted vdb" "$bin" mesh "$tmp/head.vdb" --iso 1150 -o "$tmp/head_bone.ply"
+    expect_exit 0 "convert to NIfTI" "$bin" convert "$vols/flair-oblique-nrrd/FLAIR.nrrd" -o "$tmp/flair.nii.gz"
+    expect_exit 0 "info of the NIfTI" "$bin" info "$tmp/flair.nii.gz"
+    grep -q "origin       (64.898, 110.431, -27.926)" "$tmp/out" && ok || bad "FLAIR origin kept through NIfTI"
+    head -c 500000 "$vols/colin27-mri-atlases/ch2.nii.gz" >"$tmp/cut.nii.gz"
+    expect_exit 1 "truncated NIfTI" "$bin" mesh "$tmp/cut.nii.gz" --iso 50 -o "$tmp/cut.ply"
+    grep -q "truncated" "$tmp/err" && ok || bad "truncated NIfTI says so"
+    [ ! -e "$tmp/cut.ply" ] && ok || bad "no mesh from a truncated volume"
+    head -c 100 /dev/zero >"$tmp/x.raw"
+    expect_exit 1 "raw without dims" "$bin" info "$tmp/x.raw"
+    grep -q -- "--dims" "$tmp/err" && ok || bad "raw voxels ask for --dims"
+    expect_exit 1 "raw larger than the file" "$bin" info "$tmp/x.raw" --dims 10,10,10 --type uint8
+    grep -q "need 1000 bytes; the file has 100" "$tmp/err" && ok || bad "raw size error"
+fi
+
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

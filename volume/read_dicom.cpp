@@ -4,8 +4,10 @@
 // decoded by gdcm::ImageReader, rescale slope and intercept applied (CT: Hounsfield units).
 #include <algorithm>
 #include <cmath>
+#include <iostream>
 #include <map>
 #include <mutex>
+#include <sstream>
 
 #include <gdcmDirectory.h>
 #include <gdcmIPPSorter.h>
@@ -13,6 +15,7 @@
 #include <gdcmImageReader.h>
 #include <gdcmScanner.h>
 #include <gdcmTag.h>
+#include <gdcmTrace.h>
 
 #include <glm/geometric.hpp>
 
@@ -134,8 +137,18 @@ DenseVolume readDicomSeries(const std::filesystem::path& dir, const std::string&
         const std::string& f = sorted[k];
         gdcm::ImageReader reader;
         reader.SetFileName(f.c_str());
-        if (!reader.Read())
+        // GDCM reads a file whose pixel data is cut short with only a warning (and zeros for the rest):
+        // listen to its warnings and refuse such a slice.
+        std::ostringstream warnings;
+        gdcm::Trace::SetWarningStream(warnings);
+        gdcm::Trace::SetErrorStream(warnings);
+        const bool read = reader.Read();
+        gdcm::Trace::SetWarningStream(std::cerr);
+        gdcm::Trace::SetErrorStream(std::cerr);
+        if (!read)
             throw IoError(f + ": GDCM cannot read the image (truncated or corrupt file, or an unsupported encoding)");
+        if (warnings.str().find("Incomplete Pixel Data") != std::string::npos)
+            throw IoError(f + ": the pixel data ends before the size its header gives (truncated file)");
         const gdcm::Image& img = reader.GetImage();
         const std::int64_t w = img.GetDimension(0), h = img.GetDimension(1);
         const gdcm::PixelFormat pf = img.GetPixelFormat();
