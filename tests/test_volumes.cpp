@@ -229,6 +229,10 @@ TEST(Volumes, BrokenFilesGiveClearErrors) {
     writeBytes(dir / "dims.mha", "NDims = 3\nDimSize = 10 ten 10\nElementDataFile = LOCAL\n");
     EXPECT_NE(errorOf(dir / "dims.mha").find("dims.mha:2: DimSize: expected 3 numbers, found 'ten'"),
               std::string::npos);
+    writeBytes(dir / "absurd.mha",
+               "NDims = 3\nDimSize = 1e30 1 -4\nElementType = MET_UCHAR\nElementDataFile = LOCAL\n");
+    EXPECT_NE(errorOf(dir / "absurd.mha").find("DimSize: expected whole numbers from 1 to 1,048,576"),
+              std::string::npos);
     writeBytes(dir / "huge.mha",
                "NDims = 3\nDimSize = 100000 100000 100000\nElementType = MET_UCHAR\nElementDataFile = LOCAL\n");
     EXPECT_THROW(volume::readVolume(dir / "huge.mha"), ResourceError);
@@ -351,4 +355,54 @@ TEST(VolumeViews, VoxelsAndVolumeRenderingSeeWhatIsThere) {
     EXPECT_NEAR(vr.color[corner].r, f.color[corner].r, 1e-5f);  // background
     EXPECT_THROW(render::parseTransferFunction("0:0,0,0"), std::invalid_argument);
     EXPECT_THROW(render::parseTransferFunction("5:0,0,0,0 1:0,0,0,0"), std::invalid_argument);
+}
+
+TEST(Volumes, EveryCutOfEveryFormatIsAnErrorNotACrash) {
+    // Files cut at 25 places each (headers included), and bytes flipped in headers: always an IoError (or,
+    // for a flip inside the voxels only, a volume), never a crash; run under ASan and UBSan in CI.
+    const auto dir = test::scratchDir("cuts");
+    struct Source {
+        std::filesystem::path file;
+        std::string name;
+    };
+    const std::string meta = readBytes(vols() / "head-mr-small/HeadMRVolume.mhd");
+    const std::string raw = readBytes(vols() / "head-mr-small/HeadMRVolume.raw");
+    writeBytes(dir / "local.mha", meta.substr(0, meta.find("ElementDataFile")) + "ElementDataFile = LOCAL\n" + raw);
+    volume::writeNifti(dir / "small.nii", volume::readVolume(dir / "local.mha"));
+    volume::writeNifti(dir / "small.nii.gz", volume::readVolume(dir / "local.mha"));
+    const std::vector<Source> sources = {{dir / "local.mha", "cut.mha"},
+                                         {dir / "small.nii", "cut.nii"},
+                                         {dir / "small.nii.gz", "cut.nii.gz"},
+                                         {vols() / "flair-oblique-nrrd/FLAIR.nrrd", "cut.nrrd"}};
+    std::size_t errors = 0, reads = 0, cutErrors = 0;
+    for (const Source& src : sources) {
+        const std::string bytes = readBytes(src.file);
+        for (int i = 0; i < 25; ++i) {
+            const std::size_t at = i < 12 ? std::size_t(i) * 37 : bytes.size() * std::size_t(i - 11) / 14;
+            writeBytes(dir / src.name, bytes.substr(0, std::min(at, bytes.size() - 1)));
+            try {
+                volume::readVolume(dir / src.name);
+                ADD_FAILURE() << src.name << " cut at " << at << " of " << bytes.size() << " bytes was read";
+            } catch (const IoError&) {
+                ++cutErrors;
+            }
+        }
+        std::uint32_t state = 12345;
+        for (int i = 0; i < 40; ++i) {  // header bytes overwritten
+            std::string flipped = bytes;
+            state = state * 1664525u + 1013904223u;
+            flipped[std::size_t(state >> 8) % std::min<std::size_t>(flipped.size(), 400)] = char(state >> 24);
+            writeBytes(dir / src.name, flipped);
+            try {
+                volume::readVolume(dir / src.name);
+                ++reads;
+            } catch (const IoError&) {
+                ++errors;
+            } catch (const ResourceError&) {
+                ++errors;
+            }
+        }
+    }
+    EXPECT_EQ(cutErrors, 100u);       // every cut file is refused (4 formats x 25 cuts)
+    EXPECT_EQ(reads + errors, 160u);  // and every flipped one either reads or is refused
 }

@@ -286,6 +286,10 @@ DenseVolume readMetaImage(const std::filesystem::path& path) {
     v.format = "MetaImage";
     const auto dimSize = require("dimsize", "DimSize");
     const auto dims = numbers(path, dimSize.second, "DimSize", dimSize.first, nd);
+    for (double d : dims)
+        if (!(d >= 1 && d <= double(1 << 20)) || d != std::floor(d))
+            throw IoError(path.string() + ":" + std::to_string(dimSize.second) +
+                          ": DimSize: expected whole numbers from 1 to 1,048,576, found '" + dimSize.first + "'");
     v.dims = {std::int64_t(dims[0]), std::int64_t(dims[1]), nd == 3 ? std::int64_t(dims[2]) : 1};
     checkVolumeSize(path, v.dims);
     const auto type = require("elementtype", "ElementType");
