@@ -117,7 +117,7 @@ void addRenderCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
         std::vector<std::string> iso;
         int spp = 1, ao = 0;
         bool cameraAuto = false, noShadows = false, orthographic = false;
-        std::vector<float> eye, target;
+        std::vector<float> eye, target, up;
         float fov = 0.f;
         FieldInput field;
     };
@@ -142,6 +142,9 @@ void addRenderCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
     cmd->add_flag("--camera-auto", a->cameraAuto, "Frame the object automatically, ignoring the scene's camera");
     cmd->add_option("--eye", a->eye, "Camera position x,y,z")->expected(3)->delimiter(',');
     cmd->add_option("--target", a->target, "Point looked at x,y,z")->expected(3)->delimiter(',');
+    cmd->add_option("--up", a->up, "Camera up direction x,y,z (e.g. 0,0,-1 for volumes stored head down)")
+        ->expected(3)
+        ->delimiter(',');
     cmd->add_option("--fov", a->fov, "Vertical field of view, degrees")->check(CLI::Range(1.f, 179.f));
     cmd->add_flag("--orthographic", a->orthographic, "Orthographic projection");
     cmd->add_flag("--no-shadows", a->noShadows, "No shadow rays");
@@ -319,6 +322,10 @@ void addRenderCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
             }
             if (!a->eye.empty()) look.camera.eye = glm::vec3(a->eye[0], a->eye[1], a->eye[2]);
             if (!a->target.empty()) look.camera.target = glm::vec3(a->target[0], a->target[1], a->target[2]);
+            if (!a->up.empty()) {
+                look.camera.up = glm::vec3(a->up[0], a->up[1], a->up[2]);
+                if (glm::length(look.camera.up) <= 0.f) throw CLI::ValidationError("--up", "a zero up direction");
+            }
             if (a->fov > 0) look.camera.fov = a->fov;
             if (a->orthographic) look.camera.orthographic = true;
             if (glm::length(look.camera.target - look.camera.eye) <= 0.f)

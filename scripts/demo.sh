@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The main job on bundled data: render the showcase scene (CSG + blobby + quadric, materials, shadows)
-# both ways, mesh the bundled level set and a scene, and check the meshes. Outputs go to out/.
+# both ways, mesh the bundled level set and a scene, render and mesh a bundled CT head, and check the
+# meshes. Outputs go to out/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 mkdir -p out
@@ -12,4 +13,10 @@ $bin mesh data/sphere.vdb -o out/sphere.ply
 $bin check out/sphere.ply
 $bin mesh examples/bracket.isf -o out/bracket.ply
 $bin check --strict out/bracket.ply
-echo "demo: images and meshes are in out/ (open out/showcase.png)"
+# A CT of a head (NRRD, 93 slice files): bone under translucent skin, a bone mesh, a slice.
+$bin info data/headsq/quarter.nhdr
+$bin render data/headsq/quarter.nhdr --iso 1150:ivory --iso 500:skin:0.35 --up 0,0,-1 --size 800x600 -o out/head.png
+$bin mesh data/headsq/quarter.nhdr --iso 1150 --smooth 1 -o out/head_bone.ply
+$bin check --strict out/head_bone.ply
+$bin slice data/headsq/quarter.nhdr --axis axial --index 40 -o out/head_slice.png
+echo "demo: images and meshes are in out/ (open out/showcase.png and out/head.png)"

@@ -200,6 +200,8 @@ if [ -d "$vols" ]; then
     expect_exit 0 "frog labels, one file each" "$bin" mesh "$vols/frog-tissue-labels/frogtissue.mhd" --labels --colors "$vols/frog-tissue-labels/frog_tissue_labels.txt" --split -o "$tmp/frog.glb"
     [ -s "$tmp/frog_13_skeleton.glb" ] && ok || bad "frog skeleton file"
     expect_exit 0 "bone under translucent skin" "$bin" render "$vols/headsq-ct-nrrd/quarter.nhdr" --iso 1150:ivory --iso 500:skin:0.35 -o "$tmp/head.png" --size 320x240
+    expect_exit 0 "bundled head, camera turned" "$bin" render "$src/data/headsq/quarter.nhdr" --iso 1150:ivory --up 0,0,-1 -o "$tmp/head_up.png" --size 160x120
+    expect_exit 2 "zero up direction" "$bin" render "$src/data/headsq/quarter.nhdr" --up 0,0,0 -o "$tmp/head_up0.png"
     expect_exit 0 "negative iso-value" "$bin" render "$ct" --iso 300:ivory --iso -300:skin:0.35 -o "$tmp/ct.png" --size 160x120
     expect_exit 0 "MIP" "$bin" render "$vols/colin27-mri-atlases/ch2.nii.gz" --mip axial -o "$tmp/mip.png"
     grep -q "181x217" "$tmp/out" && ok || bad "axial MIP of 181 x 217"
