@@ -122,7 +122,7 @@ namespace {
 
 /// `mesh --labels`: one closed, coloured surface per label of a label map.
 int meshLabels(const std::string& input, const std::string& output, const std::string& colors, bool split,
-               const VolumeInput& vin, const GlobalOptions& g, bool ascii) {
+               const std::string& method, const VolumeInput& vin, const GlobalOptions& g, bool ascii) {
     if (!mesh::isMeshPath(output))
         throw CLI::ValidationError("--output", output + ": expected a .ply, .obj, .stl or .glb file name");
     if (!isDenseVolumeFile(input)) throw CLI::ValidationError("--labels", "--labels needs a label volume file");
@@ -131,7 +131,9 @@ int meshLabels(const std::string& input, const std::string& output, const std::s
     const volume::DenseVolume v = loadVolume(input, vin, g);
     TerminalProgress progress;
     const auto t0 = std::chrono::steady_clock::now();
-    std::vector<volume::LabelSurface> surfaces = volume::labelSurfaces(v, g.quiet ? nullptr : &progress);
+    std::vector<volume::LabelSurface> surfaces =
+        volume::labelSurfaces(v, g.quiet ? nullptr : &progress,
+                              method == "mc" ? volume::LabelMethod::MarchingCubes : volume::LabelMethod::Shared);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     mesh::TriMesh all;
     std::size_t open = 0, inTable = 0;
@@ -177,7 +179,7 @@ int meshLabels(const std::string& input, const std::string& output, const std::s
 
 void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
     struct Args {
-        std::string input, output, grid, inside = "auto", colors;
+        std::string input, output, grid, inside = "auto", colors, labelMethod = "shared";
         float iso = 0.f;
         int smooth = 0;
         bool normals = false, indexSpace = false, ascii = false, stats = false, labels = false, split = false;
@@ -203,6 +205,11 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                     "Label colours/names: a .lut (768 bytes), an ITK-SNAP or Slicer table, or 'index name r g b' "
                     "lines");
     cmd->add_flag("--split", a->split, "With --labels: one file per label (NAME_LABEL.ext beside -o) as well");
+    cmd->add_option("--label-method", a->labelMethod,
+                    "With --labels: shared (default: touching labels share every boundary triangle, no gaps or "
+                    "overlaps) or mc (marching cubes per label: smoother, 4x fewer triangles, gaps where labels "
+                    "meet)")
+        ->check(CLI::IsMember({"shared", "mc"}));
     cmd->add_option("-o,--output", a->output,
                     "Mesh file: .ply (binary; --ascii for text), .obj, .stl or .glb (glTF, with vertex colours)")
         ->required();
@@ -222,7 +229,8 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
             using Clock = std::chrono::steady_clock;
             const auto t0 = Clock::now();
             TerminalProgress progress;
-            if (a->labels) return meshLabels(a->input, a->output, a->colors, a->split, a->volume, g, a->ascii);
+            if (a->labels)
+                return meshLabels(a->input, a->output, a->colors, a->split, a->labelMethod, a->volume, g, a->ascii);
             if (!a->colors.empty() || a->split)
                 throw CLI::ValidationError("--colors", "--colors and --split go with --labels");
             implicit::FieldPtr field;

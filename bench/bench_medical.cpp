@@ -48,10 +48,16 @@ int main(int argc, char** argv) {
 
     // (2) AAL labels: all at once vs the single-iso core once per label on the whole volume.
     const volume::DenseVolume aal = volume::readVolume(vols + "colin27-mri-atlases/aal.nii.gz");
-    std::vector<volume::LabelSurface> surfaces;
-    const auto ours = bench::timed([&] { surfaces = volume::labelSurfaces(aal); });
-    std::size_t labelTriangles = 0;
+    std::vector<volume::LabelSurface> surfaces, shared;
+    const auto ours =
+        bench::timed([&] { surfaces = volume::labelSurfaces(aal, nullptr, volume::LabelMethod::MarchingCubes); });
+    std::size_t labelTriangles = 0, sharedTriangles = 0;
     for (const auto& s : surfaces) labelTriangles += s.mesh.triangleCount();
+    const auto sharedRun =
+        bench::timed([&] { shared = volume::labelSurfaces(aal, nullptr, volume::LabelMethod::Shared); });
+    for (const auto& s : shared) sharedTriangles += s.mesh.triangleCount();
+    std::printf("shared_seconds %.4f\nshared_triangles %zu\nshared_peak_mib %.1f\n", sharedRun.first, sharedTriangles,
+                double(sharedRun.second) / (1 << 20));
     double perLabel = -1;
     long long perLabelPeak = 0;
     std::size_t perLabelTriangles = 0;

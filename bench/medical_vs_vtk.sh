@@ -18,8 +18,10 @@ row "CT: mesh bone at 300 HU (s)" "$(get ct_mesh)" "$(get vtk_ct_mesh)"
 printf '%-44s %12s %12s\n' "CT: triangles" "$(get ct_triangles)" "$(get vtk_ct_triangles)"
 printf '%-44s %12s\n' "CT: isoforge sparse conversion (s)" "$(get ct_convert)"
 printf '%-44s %12s %12s\n' "CT: peak memory (MiB; VTK: whole process)" "$(get ct_peak_mib)" "$(get vtk_peak_mib)"
-row "AAL 116 labels (s)" "$(get labels_seconds)" "$(get vtk_labels_seconds)"
+row "AAL 116 labels, marching cubes per label (s)" "$(get labels_seconds)" "$(get vtk_labels_seconds)"
 printf '%-44s %12s %12s\n' "AAL: triangles" "$(get labels_triangles)" "$(get vtk_labels_triangles)"
+row "AAL 116 labels, shared boundaries (s)" "$(get shared_seconds)" "$(get vtk_labels_seconds)"
+printf '%-44s %12s\n' "AAL shared: triangles" "$(get shared_triangles)"
 if [ "$(get per_label_seconds)" != "-1.0000" ]; then
     printf '%-44s %12s  (%.1fx slower than all labels at once)\n' "AAL: single-iso core once per label (s)" \
         "$(get per_label_seconds)" "$(echo "$(get per_label_seconds) / $(get labels_seconds)" | bc -l)"

@@ -2,9 +2,11 @@
 // DICOM series sorts by position although its instance numbers run backwards; left stays left (the AAL
 // atlas's left and right regions, the oblique FLAIR through NIfTI and back); label surfaces; broken
 // files give clear errors; views (slices, MIP, volume rendering, voxels) on real and synthetic data.
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <map>
 #include <numeric>
 
 #include <glm/geometric.hpp>
@@ -161,18 +163,134 @@ TEST(Volumes, LeftStaysLeft) {
     }
 }
 
-TEST(Volumes, AalLabelSurfacesAreClosedAndMatchTheTable) {
+TEST(Volumes, AalLabelSurfacesAreClosedShareTheirBoundariesAndMatchTheTable) {
     const DenseVolume aal = volume::readVolume(vols() / "colin27-mri-atlases/aal.nii.gz");
     const volume::LabelTable names = volume::readLabelTable(vols() / "colin27-mri-atlases/aal.nii.txt");
-    const std::vector<volume::LabelSurface> surfaces = volume::labelSurfaces(aal);
     EXPECT_EQ(names.size(), 116u);
-    ASSERT_EQ(surfaces.size(), names.size()) << "labels found vs the table";
-    for (const auto& s : surfaces) {
-        EXPECT_TRUE(names.count(s.label)) << "label " << s.label << " is not in the table";
-        test::expectClosedSurface(s.mesh, "AAL label " + std::to_string(s.label));
+    for (const auto method : {volume::LabelMethod::Shared, volume::LabelMethod::MarchingCubes}) {
+        const bool shared = method == volume::LabelMethod::Shared;
+        SCOPED_TRACE(shared ? "shared" : "marching cubes");
+        const std::vector<volume::LabelSurface> surfaces = volume::labelSurfaces(aal, nullptr, method);
+        ASSERT_EQ(surfaces.size(), names.size()) << "labels found vs the table";
+        double volumeSum = 0;
+        std::size_t voxels = 0;
+        for (const auto& s : surfaces) {
+            EXPECT_TRUE(names.count(s.label)) << "label " << s.label << " is not in the table";
+            volumeSum += test::expectClosedSurface(s.mesh, "AAL label " + std::to_string(s.label)).volume;
+            voxels += s.voxels;
+        }
+        // Both enclose about the labelled voxels' volume (1 mm^3 each).
+        EXPECT_NEAR(volumeSum / double(voxels), 1.0, 0.1);
+        // Touching labels share their boundary: every triangle is on one label's surface (against the
+        // background) or on exactly two, with opposite orientations.
+        using Key = std::array<std::array<float, 3>, 3>;
+        std::map<Key, std::vector<std::pair<int, bool>>> seen;
+        for (const auto& s : surfaces)
+            for (const glm::uvec3& t : s.mesh.triangles) {
+                Key k;
+                for (int q = 0; q < 3; ++q) {
+                    const glm::vec3 p = s.mesh.positions[t[q]];
+                    k[std::size_t(q)] = {p.x, p.y, p.z};
+                }
+                // Canonical rotation (smallest vertex first) keeps the orientation in `even`.
+                const auto m = std::size_t(std::min_element(k.begin(), k.end()) - k.begin());
+                std::rotate(k.begin(), k.begin() + std::ptrdiff_t(m), k.end());
+                const bool even = k[1] < k[2];
+                if (!even) std::swap(k[1], k[2]);
+                seen[k].push_back({s.label, even});
+            }
+        std::size_t once = 0, twice = 0, bad = 0;
+        mesh::TriMesh outer;  // the triangles on one surface only, as oriented there
+        for (const auto& [k, uses] : seen) {
+            if (uses.size() == 1) {
+                ++once;
+                const auto base = std::uint32_t(outer.positions.size());
+                for (const auto& p : k) outer.positions.emplace_back(p[0], p[1], p[2]);
+                outer.triangles.push_back(uses[0].second ? glm::uvec3(base, base + 1, base + 2)
+                                                         : glm::uvec3(base, base + 2, base + 1));
+            } else if (uses.size() == 2 && uses[0].first != uses[1].first && uses[0].second != uses[1].second) {
+                ++twice;
+            } else {
+                ++bad;
+            }
+        }
+        EXPECT_EQ(bad, 0u);
+        // The unshared triangles close up on their own (the labels' outside against the background).
+        mesh::weldIdenticalPositions(outer);
+        const mesh::MeshReport r = mesh::check(outer);
+        EXPECT_EQ(r.boundaryEdges, 0u);
+        EXPECT_EQ(r.misorientedEdges, 0u);
+        std::printf("%s: %zu triangles on one surface, %zu shared by two labels; volume %.0f mm^3 for %zu voxels\n",
+                    shared ? "shared" : "marching cubes", once, twice, volumeSum, voxels);
     }
-    // Labels are meshed in parallel: the result does not depend on the thread count (same order, same mesh).
-    EXPECT_EQ(volume::labelSurfaces(aal)[57].mesh.positions, surfaces[57].mesh.positions);
+    // The result does not depend on the thread count (labels are meshed in parallel): same order, same meshes.
+    EXPECT_EQ(volume::labelSurfaces(aal)[57].mesh.positions, volume::labelSurfaces(aal)[57].mesh.positions);
+}
+
+TEST(Volumes, SharedLabelSurfacesNeitherOverlapNorLeaveGaps) {
+    // Random labels 0-4 in a 9^3 block: junctions of three and four labels everywhere. Every point is inside
+    // (generalized winding number > 1/2) at most one label's surface, every point of a cell whose eight voxels
+    // are all labelled is inside one, and voxel centres are inside their own label's. Independent marching
+    // cubes per label, for contrast, leaves gaps.
+    DenseVolume v;
+    v.dims = {9, 9, 9};
+    std::uint32_t state = 7;
+    for (std::size_t i = 0; i < v.voxelCount(); ++i) {
+        state = state * 1664525u + 1013904223u;
+        v.values.push_back(float((state >> 24) % 5));
+    }
+    v.indexToWorld = glm::dmat4(glm::dvec4(1, 0, 0, 0), glm::dvec4(0, 1.5, 0, 0), glm::dvec4(0, 0, -0.8, 0),
+                                glm::dvec4(3, 2, 1, 1));  // anisotropic and mirrored
+    auto winding = [](const mesh::TriMesh& m, const glm::dvec3& q) {
+        double omega = 0;
+        for (const glm::uvec3& t : m.triangles) {
+            const glm::dvec3 a = glm::dvec3(m.positions[t.x]) - q, b = glm::dvec3(m.positions[t.y]) - q,
+                             c = glm::dvec3(m.positions[t.z]) - q;
+            const double la = glm::length(a), lb = glm::length(b), lc = glm::length(c);
+            omega += 2 * std::atan2(glm::dot(a, glm::cross(b, c)),
+                                    la * lb * lc + glm::dot(a, b) * lc + glm::dot(b, c) * la + glm::dot(c, a) * lb);
+        }
+        return omega / (4 * M_PI);
+    };
+    for (const auto method : {volume::LabelMethod::Shared, volume::LabelMethod::MarchingCubes}) {
+        const bool shared = method == volume::LabelMethod::Shared;
+        const auto surfaces = volume::labelSurfaces(v, nullptr, method);
+        ASSERT_EQ(surfaces.size(), 4u);
+        std::size_t overlaps = 0, gaps = 0, samples = 0;
+        for (const auto& s : surfaces) test::expectClosedSurface(s.mesh, "label " + std::to_string(s.label));
+        for (int n = 0; n < 600; ++n) {
+            state = state * 1664525u + 1013904223u;
+            const glm::dvec3 idx(double(state % 1000) / 1000 * 8, double((state >> 10) % 1000) / 1000 * 8,
+                                 double((state >> 20) % 1000) / 1000 * 8);
+            const glm::dvec3 q(v.indexToWorld * glm::dvec4(idx, 1.0));
+            int inside = 0;
+            for (const auto& s : surfaces) inside += winding(s.mesh, q) > 0.5;
+            overlaps += inside > 1;
+            // A point in a cell whose eight voxels are all labelled is away from the background: in a label.
+            bool labelled = true;
+            for (int c = 0; c < 8; ++c)
+                labelled = labelled && v.at(std::int64_t(idx.x) + (c & 1), std::int64_t(idx.y) + ((c >> 1) & 1),
+                                            std::int64_t(idx.z) + ((c >> 2) & 1)) != 0.f;
+            gaps += labelled && inside == 0;
+            ++samples;
+        }
+        if (shared) {
+            EXPECT_EQ(overlaps, 0u) << "points inside two labels";
+            EXPECT_EQ(gaps, 0u) << "points between labels inside none";
+            for (std::int64_t k = 0; k < 9; k += 2)  // voxel centres are inside their own label
+                for (std::int64_t j = 0; j < 9; j += 2)
+                    for (std::int64_t i = 0; i < 9; i += 2) {
+                        const int l = int(v.at(i, j, k));
+                        if (l == 0) continue;
+                        const glm::dvec3 q(v.indexToWorld * glm::dvec4(double(i), double(j), double(k), 1.0));
+                        EXPECT_GT(winding(surfaces[std::size_t(l - 1)].mesh, q), 0.5) << i << " " << j << " " << k;
+                    }
+        } else {
+            EXPECT_GT(overlaps + gaps, 0u) << "independent marching cubes was expected to leave gaps somewhere";
+        }
+        std::printf("%s: of %zu random points, %zu inside two labels, %zu in gaps between labels\n",
+                    shared ? "shared" : "marching cubes", samples, overlaps, gaps);
+    }
 }
 
 TEST(Volumes, LabelTablesOfEveryKindRead) {
