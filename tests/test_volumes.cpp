@@ -163,7 +163,7 @@ TEST(Volumes, LeftStaysLeft) {
     }
 }
 
-TEST(Volumes, AalLabelSurfacesAreClosedShareTheirBoundariesAndMatchTheTable) {
+TEST(Volumes, AalLabelSurfacesAreClosedAndMatchTheTable) {
     const DenseVolume aal = volume::readVolume(vols() / "colin27-mri-atlases/aal.nii.gz");
     const volume::LabelTable names = volume::readLabelTable(vols() / "colin27-mri-atlases/aal.nii.txt");
     EXPECT_EQ(names.size(), 116u);
@@ -181,47 +181,7 @@ TEST(Volumes, AalLabelSurfacesAreClosedShareTheirBoundariesAndMatchTheTable) {
         }
         // Both enclose about the labelled voxels' volume (1 mm^3 each).
         EXPECT_NEAR(volumeSum / double(voxels), 1.0, 0.1);
-        // Touching labels share their boundary: every triangle is on one label's surface (against the
-        // background) or on exactly two, with opposite orientations.
-        using Key = std::array<std::array<float, 3>, 3>;
-        std::map<Key, std::vector<std::pair<int, bool>>> seen;
-        for (const auto& s : surfaces)
-            for (const glm::uvec3& t : s.mesh.triangles) {
-                Key k;
-                for (int q = 0; q < 3; ++q) {
-                    const glm::vec3 p = s.mesh.positions[t[q]];
-                    k[std::size_t(q)] = {p.x, p.y, p.z};
-                }
-                // Canonical rotation (smallest vertex first) keeps the orientation in `even`.
-                const auto m = std::size_t(std::min_element(k.begin(), k.end()) - k.begin());
-                std::rotate(k.begin(), k.begin() + std::ptrdiff_t(m), k.end());
-                const bool even = k[1] < k[2];
-                if (!even) std::swap(k[1], k[2]);
-                seen[k].push_back({s.label, even});
-            }
-        std::size_t once = 0, twice = 0, bad = 0;
-        mesh::TriMesh outer;  // the triangles on one surface only, as oriented there
-        for (const auto& [k, uses] : seen) {
-            if (uses.size() == 1) {
-                ++once;
-                const auto base = std::uint32_t(outer.positions.size());
-                for (const auto& p : k) outer.positions.emplace_back(p[0], p[1], p[2]);
-                outer.triangles.push_back(uses[0].second ? glm::uvec3(base, base + 1, base + 2)
-                                                         : glm::uvec3(base, base + 2, base + 1));
-            } else if (uses.size() == 2 && uses[0].first != uses[1].first && uses[0].second != uses[1].second) {
-                ++twice;
-            } else {
-                ++bad;
-            }
-        }
-        EXPECT_EQ(bad, 0u);
-        // The unshared triangles close up on their own (the labels' outside against the background).
-        mesh::weldIdenticalPositions(outer);
-        const mesh::MeshReport r = mesh::check(outer);
-        EXPECT_EQ(r.boundaryEdges, 0u);
-        EXPECT_EQ(r.misorientedEdges, 0u);
-        std::printf("%s: %zu triangles on one surface, %zu shared by two labels; volume %.0f mm^3 for %zu voxels\n",
-                    shared ? "shared" : "marching cubes", once, twice, volumeSum, voxels);
+        std::printf("%s: volume %.0f mm^3 for %zu voxels\n", shared ? "shared" : "marching cubes", volumeSum, voxels);
     }
     // The result does not depend on the thread count (labels are meshed in parallel): same order, same meshes.
     EXPECT_EQ(volume::labelSurfaces(aal)[57].mesh.positions, volume::labelSurfaces(aal)[57].mesh.positions);
