@@ -153,7 +153,32 @@ TEST(Volumes, LeftStaysLeft) {
     std::memcpy(srowX, bytes.data() + 280, sizeof srowX);  // NIfTI-1 header: srow_x at byte 280, in RAS
     EXPECT_NEAR(srowX[3], -64.898239f, 1e-4f);
     EXPECT_NEAR(srowX[0], 0.993592f, 1e-5f);
-    for (const char* name : {"flair.nii", "flair.nii.gz"}) {
+    {
+        // NIfTI-2 (540-byte header, 64-bit dimensions), assembled here field by field from the standard's
+        // layout, with the FLAIR's voxels as float32 and its matrix in RAS: niftilib must read it back the same.
+        std::string h(544, '\0');
+        auto put = [&](std::size_t at, const auto& value) { std::memcpy(&h[at], &value, sizeof value); };
+        put(0, std::int32_t(540));
+        std::memcpy(&h[4], "n+2\0\r\n\032\n", 8);
+        put(12, std::int16_t(16));  // DT_FLOAT32
+        put(14, std::int16_t(32));
+        const std::int64_t dims[8] = {3, flair.dims[0], flair.dims[1], flair.dims[2], 1, 1, 1, 1};
+        std::memcpy(&h[16], dims, sizeof dims);
+        const double pixdim[8] = {1, 1, 1, 1, 1, 1, 1, 1};
+        std::memcpy(&h[104], pixdim, sizeof pixdim);
+        put(168, std::int64_t(544));  // vox_offset
+        put(176, 1.0);                // scl_slope
+        put(348, std::int32_t(1));    // sform_code
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 4; ++c)
+                put(400 + std::size_t(32 * r + 8 * c), (r < 2 ? -1.0 : 1.0) * flair.indexToWorld[c][r]);
+        put(500, std::int32_t(2));  // mm
+        std::string body(flair.values.size() * 4, '\0');
+        std::memcpy(body.data(), flair.values.data(), body.size());
+        writeBytes(dir / "flair2.nii", h + body);
+        EXPECT_EQ(volume::readVolume(dir / "flair2.nii").format, "NIfTI-2");
+    }
+    for (const char* name : {"flair.nii", "flair.nii.gz", "flair2.nii"}) {
         if (std::string(name) == "flair.nii.gz") volume::writeNifti(dir / name, flair);
         const DenseVolume back = volume::readVolume(dir / name);
         EXPECT_EQ(back.dims, flair.dims);

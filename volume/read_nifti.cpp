@@ -82,6 +82,19 @@ std::uint64_t availableBytes(const std::filesystem::path& path, std::uint64_t of
     return total > offset ? total - offset : 0;
 }
 
+/// The version from the first field, sizeof_hdr: 348 for NIfTI-1, 540 for NIfTI-2 (either byte order).
+int niftiVersion(const std::filesystem::path& path) {
+    gzFile f = gzopen(path.c_str(), "rb");
+    if (!f) return 0;
+    unsigned char b[4] = {0, 0, 0, 0};
+    const int n = gzread(f, b, 4);
+    gzclose(f);
+    if (n != 4) return 0;
+    const std::uint32_t le = b[0] | (b[1] << 8) | (b[2] << 16) | (std::uint32_t(b[3]) << 24),
+                        be = b[3] | (b[2] << 8) | (b[1] << 16) | (std::uint32_t(b[0]) << 24);
+    return le == 540 || be == 540 ? 2 : 1;
+}
+
 }  // namespace
 
 DenseVolume readNifti(const std::filesystem::path& path) {
@@ -145,7 +158,7 @@ DenseVolume readNifti(const std::filesystem::path& path) {
     for (int c = 0; c < 4; ++c)
         for (int r = 0; r < 3; ++r) v.indexToWorld[c][r] = (r < 2 ? -1.0 : 1.0) * m.m[r][c];
     v.indexToWorld[3][3] = 1.0;
-    v.format = h.nifti_type >= NIFTI_FTYPE_NIFTI2_1 ? "NIfTI-2" : "NIfTI-1";
+    v.format = niftiVersion(path) == 2 ? "NIfTI-2" : "NIfTI-1";
     v.storedType = type;
     if (h.descrip[0]) v.notes.push_back(std::string("description: ") + std::string(h.descrip, strnlen(h.descrip, 80)));
     return v;
