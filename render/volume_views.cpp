@@ -306,6 +306,14 @@ struct IndexRay {
     double t0 = 0, t1 = -1;  ///< inside the voxel box [-0.5, n - 0.5]
 };
 
+void fillStats(RenderStats* stats, std::chrono::steady_clock::time_point start, const RenderOptions& o,
+               std::uint64_t hits) {
+    if (!stats) return;
+    stats->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    stats->primaryRays = std::uint64_t(o.width) * std::uint64_t(o.height) * std::uint64_t(o.spp);
+    stats->hitPixels = hits;
+}
+
 IndexRay toIndex(const glm::dmat4& worldToIndex, const DenseVolume& v, const detail::Ray& r) {
     IndexRay ir;
     ir.o = glm::dvec3(worldToIndex * glm::dvec4(glm::dvec3(r.origin), 1.0));
@@ -378,11 +386,7 @@ Frame renderVolume(const DenseVolume& v, const TransferFunction& tf, const Look&
             return res;
         },
         hits);
-    if (stats) {
-        stats->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        stats->primaryRays = std::uint64_t(o.width) * std::uint64_t(o.height) * std::uint64_t(o.spp);
-        stats->hitPixels = hits;
-    }
+    fillStats(stats, start, o, hits);
     return f;
 }
 
@@ -484,11 +488,7 @@ Frame renderVoxels(const DenseVolume& v, const volume::LabelTable& labels, const
             return res;
         },
         hits);
-    if (stats) {
-        stats->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        stats->primaryRays = std::uint64_t(o.width) * std::uint64_t(o.height) * std::uint64_t(o.spp);
-        stats->hitPixels = hits;
-    }
+    fillStats(stats, start, o, hits);
     return f;
 }
 

@@ -118,6 +118,8 @@ DenseVolume readNifti(const std::filesystem::path& path) {
     DenseVolume v;
     v.dims = {h.nx, std::max<std::int64_t>(h.ny, 1), std::max<std::int64_t>(h.nz, 1)};
     checkVolumeSize(path, v.dims);
+    // Counted before loading (decompressing .gz twice): niftilib accepts a gzip stream that ends early and
+    // leaves the rest of the voxels as they were (EveryCutOfEveryFormatIsAnErrorNotACrash shows it).
     const std::uint64_t need = std::uint64_t(h.nvox) * std::uint64_t(h.nbyper);
     bool streamError = false;
     const std::uint64_t have =
