@@ -1,37 +1,179 @@
 #include "render/grid_march.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
+#include <memory>
+#include <mutex>
 #include <optional>
 #include <stdexcept>
 
 #include <openvdb/tools/Interpolation.h>
 #include <openvdb/tools/RayIntersector.h>
+#include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
 #include <glm/geometric.hpp>
+#include <glm/vec3.hpp>
 
 #include "render/shading.h"
+#include "volume/marching_cubes.h"
 
 namespace isoforge::render {
 
 namespace {
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
+/// Crossed-cell boxes of at most 2^3 cells: the depth pre-pass then starts rays within a voxel or
+/// two of the surface (4^3 and 8^3 boxes were slower on the benchmark: fewer boxes to rasterize, but
+/// more samples per ray).
+constexpr int kBrick = 2;
 using Intersector = openvdb::tools::VolumeRayIntersector<openvdb::FloatGrid, 0>;  // spans of leaf nodes
 using Accessor = openvdb::FloatGrid::ConstAccessor;
 using IndexRay = openvdb::math::Ray<double>;
 
+/// A ray in index space: time along it is world distance over the voxel size.
+struct Line {
+    openvdb::Vec3d o, d;  ///< d: unit length
+    openvdb::Vec3d operator()(double t) const { return o + d * t; }
+};
+
+/// floor() for index positions (std::floor is a library call without SSE4.1).
+inline int floorInt(double x) {
+    const int i = static_cast<int>(x);
+    return i - (x < double(i));
+}
+
+/// Every 8^3 region of the grid's bounding box (and one region of margin each side) in a flat
+/// array: a leaf's buffer, or the constant value of the tile or background there. A corner fetch
+/// then costs an index computation instead of a tree descent; positions outside the array go
+/// through the accessor. Not built when the array would pass kMaxRegions (a grid spread far and
+/// thin): then every fetch does.
+class LeafTable {
+public:
+    struct Region {
+        const float* data;  ///< the leaf's values, or null: then `value` everywhere
+        float value;
+    };
+    static constexpr std::size_t kMaxRegions = std::size_t{1} << 22;  // 64 MiB
+
+    explicit LeafTable(const openvdb::FloatGrid& grid) {
+        const openvdb::FloatTree& tree = grid.tree();
+        openvdb::CoordBBox box;  // tiles outside the leaves' box are read through the accessor
+        if (!tree.evalLeafBoundingBox(box) || box.empty()) return;
+        for (int k = 0; k < 3; ++k) {
+            const std::int64_t lo = (std::int64_t(box.min()[k]) & ~std::int64_t{7}) - 8;
+            const std::int64_t n = ((std::int64_t(box.max()[k]) & ~std::int64_t{7}) + 16 - lo) / 8;
+            if (n > (std::int64_t{1} << 20) || lo < std::numeric_limits<int>::min() / 2) return;
+            base_[k] = static_cast<int>(lo);
+            dims_[k] = static_cast<int>(n);
+        }
+        const std::size_t count = std::size_t(dims_[0]) * std::size_t(dims_[1]) * std::size_t(dims_[2]);
+        if (count > kMaxRegions) return;
+        regions_.assign(count, Region{nullptr, tree.background()});
+        // Tiles level by level (a tile's regions are disjoint from every node below it), then leaves.
+        using L2 = openvdb::FloatTree::RootNodeType::ChildNodeType;
+        using L1 = L2::ChildNodeType;
+        for (auto it = tree.root().cbeginValueAll(); it; ++it) fill(it.getCoord(), L2::DIM, *it);
+        std::vector<const L2*> upper;
+        tree.getNodes(upper);
+        for (const L2* node : upper)
+            for (auto it = node->cbeginValueAll(); it; ++it) fill(it.getCoord(), L1::DIM, *it);
+        std::vector<const L1*> lower;
+        tree.getNodes(lower);
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, lower.size(), 4), [&](const auto& r) {
+            for (std::size_t i = r.begin(); i != r.end(); ++i)
+                for (auto it = lower[i]->cbeginValueAll(); it; ++it)
+                    if (Region* reg = mutableAt(it.getCoord())) reg->value = *it;
+        });
+        std::vector<const openvdb::FloatTree::LeafNodeType*> leaves;
+        tree.getNodes(leaves);
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves.size(), 1024), [&](const auto& r) {
+            for (std::size_t i = r.begin(); i != r.end(); ++i)
+                if (Region* reg = mutableAt(leaves[i]->origin())) reg->data = leaves[i]->buffer().data();
+        });
+        ok_ = true;
+    }
+    bool ok() const { return ok_; }
+    /// The region holding voxel c, or null outside the array.
+    const Region* at(int cx, int cy, int cz) const {
+        // Below the base, the unsigned difference wraps to a huge value and fails the bound too.
+        const unsigned x = (unsigned(cx) - unsigned(base_[0])) >> 3, y = (unsigned(cy) - unsigned(base_[1])) >> 3,
+                       z = (unsigned(cz) - unsigned(base_[2])) >> 3;
+        if (x >= unsigned(dims_[0]) || y >= unsigned(dims_[1]) || z >= unsigned(dims_[2])) return nullptr;
+        return &regions_[(std::size_t(x) * std::size_t(dims_[1]) + y) * std::size_t(dims_[2]) + z];
+    }
+    /// True when the regions after the one holding voxel c along x, y and z are in the array too.
+    bool hasUpperNeighbours(int cx, int cy, int cz) const {
+        return ((cx - base_[0]) >> 3) + 1 < dims_[0] && ((cy - base_[1]) >> 3) + 1 < dims_[1] &&
+               ((cz - base_[2]) >> 3) + 1 < dims_[2];
+    }
+    /// Index offsets between neighbouring regions along x and y (z: 1).
+    std::size_t strideX() const { return std::size_t(dims_[1]) * std::size_t(dims_[2]); }
+    std::size_t strideY() const { return std::size_t(dims_[2]); }
+
+private:
+    Region* mutableAt(const openvdb::Coord& c) { return const_cast<Region*>(at(c.x(), c.y(), c.z())); }
+    /// Sets the value of the regions of a cubic tile (origin, edge `dim` voxels) inside the array.
+    void fill(const openvdb::Coord& origin, int dim, float v) {
+        int lo[3], hi[3];
+        for (int k = 0; k < 3; ++k) {
+            lo[k] = std::max(origin[k], base_[k]);
+            hi[k] = static_cast<int>(
+                std::min<std::int64_t>(std::int64_t(origin[k]) + (dim - 1), std::int64_t(base_[k]) + dims_[k] * 8 - 1));
+            if (lo[k] > hi[k]) return;
+        }
+        for (int x = lo[0]; x <= hi[0]; x += 8)
+            for (int y = lo[1]; y <= hi[1]; y += 8)
+                for (int z = lo[2]; z <= hi[2]; z += 8) mutableAt(openvdb::Coord(x, y, z))->value = v;
+    }
+
+    int base_[3] = {0, 0, 0};
+    int dims_[3] = {0, 0, 0};
+    std::vector<Region> regions_;
+    bool ok_ = false;
+};
+
+/// OpenVDB's span intersector, built on first use: its constructor copies the tree's topology,
+/// which rays started by the depth pre-pass never need.
+class SharedIntersector {
+public:
+    explicit SharedIntersector(const openvdb::FloatGrid& g) : g_(g) {}
+    const Intersector& get() const {
+        std::call_once(once_, [&] { master_ = std::make_unique<Intersector>(g_); });
+        return *master_;
+    }
+
+private:
+    const openvdb::FloatGrid& g_;
+    mutable std::once_flag once_;
+    mutable std::unique_ptr<Intersector> master_;
+};
+
 struct ThreadState {
-    Intersector inter;
+    ThreadState(const SharedIntersector& s, const openvdb::FloatGrid& g, const LeafTable& t)
+        : shared(&s), acc(g.tree()), table(&t) {}
+    const SharedIntersector* shared;
+    std::unique_ptr<Intersector> inter;
     Accessor acc;
+    const LeafTable* table;
+
+    Intersector& intersector() {
+        if (!inter) inter = std::make_unique<Intersector>(shared->get());
+        return *inter;
+    }
 };
 
 struct Crossing {
+    Crossing(double time, int l, bool in) : t(time), layer(l), inward(in) {}
     double t;     ///< index-ray time of the last sample on the near side
     int layer;    ///< which iso-surface
     bool inward;  ///< entering the inside of that layer
+    bool hasGradient = false;
+    openvdb::Vec3d gradient;  ///< index-space gradient at t, when hasGradient
 };
 
 class GridMarcher {
@@ -49,11 +191,10 @@ public:
         }
     }
 
-    /// Trilinear value at index position p. When the eight corners lie in one leaf (7 cells in 8
-    /// per axis), they are read straight from its buffer; otherwise through the accessor.
-    float sample(Accessor& acc, const openvdb::Vec3d& p) const {
+    /// Trilinear value at index position p.
+    static float sample(ThreadState& st, const openvdb::Vec3d& p) {
         float c[8];
-        const openvdb::Vec3d f = corners(acc, p, c);
+        const openvdb::Vec3d f = corners(st, p, c);
         return trilinear(c, f);
     }
     static float trilinear(const float* c, const openvdb::Vec3d& f) {
@@ -64,14 +205,17 @@ public:
         return y0 + (y1 - y0) * fz;
     }
     /// The eight corner values (index i = dx * 4 + dy * 2 + dz) of the cell holding p, and p's
-    /// fractional position in it.
-    static openvdb::Vec3d corners(Accessor& acc, const openvdb::Vec3d& p, float* c) {
-        const openvdb::Coord ijk = openvdb::Coord::floor(p);
-        const openvdb::Vec3d f = p - ijk.asVec3d();
-        const int lx = ijk.x() & 7, ly = ijk.y() & 7, lz = ijk.z() & 7;
-        if (lx < 7 && ly < 7 && lz < 7) {
-            if (const auto* leaf = acc.probeConstLeaf(ijk)) {
-                const float* d = leaf->buffer().data() + ((lx << 6) | (ly << 3) | lz);
+    /// fractional position in it. Read from the thread's cell cache: straight from one leaf buffer
+    /// when the cell lies inside it (7 cells in 8 per axis), else from the cached neighbours.
+    static openvdb::Vec3d corners(ThreadState& st, const openvdb::Vec3d& p, float* c) {
+        const int ix = floorInt(p.x()), iy = floorInt(p.y()), iz = floorInt(p.z());
+        const openvdb::Vec3d f(p.x() - ix, p.y() - iy, p.z() - iz);
+        const LeafTable& table = *st.table;
+        const LeafTable::Region* r = table.ok() ? table.at(ix, iy, iz) : nullptr;
+        const int lx = ix & 7, ly = iy & 7, lz = iz & 7;
+        if (r && lx < 7 && ly < 7 && lz < 7) {
+            if (const float* base = r->data) {
+                const float* d = base + ((lx << 6) | (ly << 3) | lz);
                 c[0] = d[0];
                 c[1] = d[1];
                 c[2] = d[8];
@@ -80,10 +224,27 @@ public:
                 c[5] = d[65];
                 c[6] = d[72];
                 c[7] = d[73];
-                return f;
+            } else {
+                std::fill(c, c + 8, r->value);
             }
+            return f;
         }
-        for (int i = 0; i < 8; ++i) c[i] = acc.getValue(ijk.offsetBy(i >> 2, (i >> 1) & 1, i & 1));
+        // The cell reaches into the next region along some axis: per axis, the region step and the
+        // in-leaf offset of its lower and upper corner.
+        if (r && table.hasUpperNeighbours(ix, iy, iz)) {
+            const std::size_t rx[2] = {0, lx == 7 ? table.strideX() : 0}, ry[2] = {0, ly == 7 ? table.strideY() : 0},
+                              rz[2] = {0, lz == 7 ? std::size_t{1} : 0};
+            const int ox[2] = {lx << 6, ((lx + 1) & 7) << 6}, oy[2] = {ly << 3, ((ly + 1) & 7) << 3},
+                      oz[2] = {lz, (lz + 1) & 7};
+            for (int i = 0; i < 8; ++i) {
+                const int dx = i >> 2, dy = (i >> 1) & 1, dz = i & 1;
+                const LeafTable::Region& q = r[rx[dx] + ry[dy] + rz[dz]];
+                c[i] = q.data ? q.data[ox[dx] | oy[dy] | oz[dz]] : q.value;
+            }
+            return f;
+        }
+        const openvdb::Coord ijk(ix, iy, iz);
+        for (int i = 0; i < 8; ++i) c[i] = st.acc.getValue(ijk.offsetBy(i >> 2, (i >> 1) & 1, i & 1));
         return f;
     }
     unsigned insideMask(float v) const {
@@ -94,21 +255,22 @@ public:
     }
 
     /// The first crossing of any layer along the index ray, after time tStart.
-    std::optional<Crossing> first(ThreadState& st, const IndexRay& ray, double tStart, double tEnd) const {
-        if (!st.inter.setIndexRay(ray)) return std::nullopt;
+    std::optional<Crossing> first(ThreadState& st, const Line& ray, double tStart, double tEnd) const {
+        Intersector& inter = st.intersector();
+        if (!inter.setIndexRay(IndexRay(ray.o, ray.d))) return std::nullopt;
         double t0 = 0, t1 = 0, prevT = -1;
         unsigned prevMask = 0;
         bool havePrev = false;
-        while (st.inter.march(t0, t1)) {
+        while (inter.march(t0, t1)) {
             if (t1 < tStart) continue;
             if (t0 > tEnd) break;
             // Across a gap between spans (inactive values), the samples either side still bracket a crossing.
             double t = std::max(t0, tStart);
             const double end = std::min(t1, tEnd);
             for (;;) {
-                const float v = sample(st.acc, ray(t));
+                const float v = sample(st, ray(t));
                 const unsigned mask = insideMask(v);
-                if (havePrev && mask != prevMask) return refine(st.acc, ray, prevT, t, prevMask, mask);
+                if (havePrev && mask != prevMask) return refine(st, ray, prevT, t, prevMask, mask);
                 havePrev = true;
                 prevT = t;
                 prevMask = mask;
@@ -127,42 +289,104 @@ public:
         return std::nullopt;
     }
 
-    /// The first crossing in [ta, tb] by plain stepping (no tree traversal): for rays started next to
-    /// the surface by the depth pre-pass. The side at ta must be the outside of every layer.
-    std::optional<Crossing> near(Accessor& acc, const IndexRay& ray, double ta, double tb, bool& startInside) const {
+    /// The first crossing in [ta, tb] by plain stepping (no tree traversal): for rays that the depth
+    /// pre-pass has confined to the span where their crossings lie. With `fromOutside`, ta must be
+    /// outside every layer (else startInside is set and nothing returned); without, the first change
+    /// of side from ta's is the answer (the layers behind a translucent one).
+    std::optional<Crossing> near(ThreadState& st, const Line& ray, double ta, double tb, bool& startInside,
+                                 bool fromOutside = true) const {
+        if (fromOutside && levelSet_ && layers_.size() == 1) return nearLevelSet(st, ray, ta, tb, startInside);
         startInside = false;
         double t = ta, prevT = ta;
-        float prevV = 0.f;
         unsigned prevMask = 0;
         bool havePrev = false;
-        while (t <= tb) {
-            const float v = sample(acc, ray(t));
+        for (;;) {
+            const float v = sample(st, ray(t));
             const unsigned mask = insideMask(v);
-            if (!havePrev && mask != 0) {  // not outside here: let the full path decide, from the eye
+            if (fromOutside && !havePrev && mask != 0) {  // not outside here: the full path decides, from the eye
                 startInside = true;
                 return std::nullopt;
             }
-            if (havePrev && mask != prevMask) {
-                if (layers_.size() > 1 || t - prevT > 1.0) return refine(acc, ray, prevT, t, prevMask, mask);
-                // One level-set layer bracketed within a voxel: its values are distances, near-linear
-                // along the ray, so the two samples' interpolation is the crossing (no more samples).
-                const double x =
-                    prevT + (t - prevT) * std::clamp(double(prevV - layers_[0].iso) / double(prevV - v), 0.0, 1.0);
-                return Crossing{std::max(prevT, x - 1e-3), 0, true};
+            if (havePrev && mask != prevMask) return refine(st, ray, prevT, t, prevMask, mask);
+            havePrev = true;
+            prevT = t;
+            prevMask = mask;
+            double step = 0.5;
+            if (levelSet_) {
+                // A step of the distance to the nearest iso-value, and a quarter voxel more: the sign
+                // change after the surface brackets it.
+                float near = kInf;
+                for (const IsoLayer& l : layers_) near = std::min(near, std::abs(v - l.iso));
+                step = std::max(double(near) / voxel_ + 0.25, 0.5);
+            }
+            if (t >= tb) return std::nullopt;
+            t = std::min(t + step, tb);  // the last sample at tb exactly
+        }
+    }
+
+    /// near() for one level-set layer: Newton steps along the ray. The values are distances, so the
+    /// trilinear gradient at a sample gives the rate at which the ray approaches the surface, and
+    /// one step usually lands just past it (a tenth of a voxel is added so that it does); a
+    /// last Newton step from that first inside sample, with the gradient of the same cell, is the
+    /// crossing. Steps never exceed twice the distance plus a quarter voxel (the sphere-tracing bound
+    /// for rays up to 60 degrees off the normal), so thin parts are not stepped over more than by
+    /// sphere tracing; where the ray runs along the surface, plain distance steps are taken.
+    std::optional<Crossing> nearLevelSet(ThreadState& st, const Line& ray, double ta, double tb,
+                                         bool& startInside) const {
+        startInside = false;
+        const float iso = layers_[0].iso;
+        const double side = below_ ? 1.0 : -1.0;  // side * (v - iso) > 0 outside
+        double t = ta, prevT = ta, prevDist = 0;
+        bool havePrev = false;
+        for (;;) {
+            float c[8];
+            const openvdb::Vec3d p = ray(t);
+            const openvdb::Vec3d f = corners(st, p, c);
+            const double dist = side * (double(trilinear(c, f)) - iso);  // > 0 outside (in value units)
+            const bool inside = below_ ? trilinear(c, f) < iso : trilinear(c, f) > iso;
+            const openvdb::Vec3d g = gradient(c, f);
+            const double rate = side * g.dot(ray.d);  // change of dist per unit of ray time
+            if (inside) {
+                if (!havePrev) {  // not outside here: let the full path decide, from the eye
+                    startInside = true;
+                    return std::nullopt;
+                }
+                // Bracketed in [prevT, t]: Newton back from the inside sample, else interpolation.
+                double x = rate < 0 ? t + dist / rate : prevT;  // dist <= 0 here
+                if (!(x > prevT && x < t)) x = prevT + (t - prevT) * std::clamp(prevDist / (prevDist - dist), 0.0, 1.0);
+                Crossing cr{std::max(prevT, x - 1e-3), 0, true};
+                cr.hasGradient = true;
+                cr.gradient = g;
+                return cr;
             }
             havePrev = true;
             prevT = t;
-            prevV = v;
-            prevMask = mask;
-            float near = kInf;
-            for (const IsoLayer& l : layers_) near = std::min(near, std::abs(v - l.iso));
-            t += std::max(0.9 * double(near) / voxel_, 0.5);
+            prevDist = dist;
+            if (t >= tb) return std::nullopt;
+            const double bound = 2.0 * dist / voxel_ + 0.25;
+            double step = dist / voxel_ + 0.25;  // sphere tracing, for rays running along the surface
+            if (rate < -1e-3 * voxel_) step = std::max(step, std::min(dist / -rate + 0.1, bound));
+            t = std::min(t + std::max(step, 0.1), tb);  // the last sample at tb exactly
         }
-        return std::nullopt;
     }
 
     /// Bisection on the first layer whose side changes between ta (mask ma) and tb (mask mb).
-    Crossing refine(Accessor& acc, const IndexRay& ray, double ta, double tb, unsigned ma, unsigned mb) const {
+    Crossing refine(ThreadState& st, const Line& ray, double ta, double tb, unsigned ma, unsigned mb) const {
+        if (tb - ta > 1.0) {
+            // A long bracket (samples either side of a gap between spans, where active tiles may lie):
+            // the first change is found in half-voxel steps before bisecting.
+            double prev = ta;
+            for (double t = ta + 0.5;; t = std::min(t + 0.5, tb)) {
+                const unsigned m = insideMask(sample(st, ray(t)));
+                if (m != ma) {
+                    ta = prev;
+                    tb = t;
+                    mb = m;
+                    break;
+                }
+                prev = t;
+            }
+        }
         Crossing best{tb, 0, false};
         for (std::size_t i = 0; i < layers_.size(); ++i) {
             const unsigned bit = 1u << i;
@@ -173,16 +397,16 @@ public:
             double a = ta, b = tb;
             for (int k = 0; k < 2; ++k) {
                 const double m = 0.5 * (a + b);
-                if ((insideMask(sample(acc, ray(m))) & bit) == (ma & bit))
+                if ((insideMask(sample(st, ray(m))) & bit) == (ma & bit))
                     a = m;
                 else
                     b = m;
             }
-            const double fa = sample(acc, ray(a)) - iso, fb = sample(acc, ray(b)) - iso;
+            const double fa = sample(st, ray(a)) - iso, fb = sample(st, ray(b)) - iso;
             if (fa != fb) {
                 const double x = a + (b - a) * std::clamp(fa / (fa - fb), 0.0, 1.0);
                 // Keep the answer on the near side: step back a hair if the interpolation crossed.
-                a = (insideMask(sample(acc, ray(x))) & bit) == (ma & bit) ? x : a + 0.999 * (x - a);
+                a = (insideMask(sample(st, ray(x))) & bit) == (ma & bit) ? x : a + 0.999 * (x - a);
             }
             if (a < best.t || best.t == tb) best = {a, static_cast<int>(i), (mb & bit) != 0};
         }
@@ -191,16 +415,23 @@ public:
 
     /// Outward normal (world) at index position p: the gradient of the trilinear interpolant of the
     /// cell holding p (one fetch of its eight corners), mapped to world space.
-    glm::vec3 normal(Accessor& acc, const openvdb::Vec3d& p) const {
+    glm::vec3 normal(ThreadState& st, const openvdb::Vec3d& p) const {
         float c[8];
-        const openvdb::Vec3d f = corners(acc, p, c);
+        const openvdb::Vec3d f = corners(st, p, c);
+        return worldNormal(gradient(c, f), p);
+    }
+    /// Index-space gradient of the trilinear interpolant of a cell at fractional position f.
+    static openvdb::Vec3d gradient(const float* c, const openvdb::Vec3d& f) {
         const double fx = f.x(), fy = f.y(), fz = f.z();
         auto lerp = [](double a, double b, double t) { return a + (b - a) * t; };
         // d/dx: difference of the x = 1 and x = 0 faces, bilinear in (y, z); likewise for y and z.
         const double gx = lerp(lerp(c[4] - c[0], c[6] - c[2], fy), lerp(c[5] - c[1], c[7] - c[3], fy), fz);
         const double gy = lerp(lerp(c[2] - c[0], c[6] - c[4], fx), lerp(c[3] - c[1], c[7] - c[5], fx), fz);
         const double gz = lerp(lerp(c[1] - c[0], c[5] - c[4], fx), lerp(c[3] - c[2], c[7] - c[6], fx), fy);
-        const openvdb::Vec3d g(gx, gy, gz);
+        return {gx, gy, gz};
+    }
+    /// Outward unit normal (world) from an index-space gradient at index position p.
+    glm::vec3 worldNormal(const openvdb::Vec3d& g, const openvdb::Vec3d& p) const {
         openvdb::Vec3d w = affine_ ? openvdb::Vec3d(inv_[0][0] * g.x() + inv_[0][1] * g.y() + inv_[0][2] * g.z(),
                                                     inv_[1][0] * g.x() + inv_[1][1] * g.y() + inv_[1][2] * g.z(),
                                                     inv_[2][0] * g.x() + inv_[2][1] * g.y() + inv_[2][2] * g.z())
@@ -218,19 +449,158 @@ private:
     double inv_[3][3] = {};
 };
 
+/// View depths between which a pixel's rays may cross a surface.
+struct DepthSpan {
+    float near = kInf, far = -kInf;
+};
+
+/// Depth pre-pass: per pixel, the nearest and farthest view depths of the boxes that hold every
+/// crossed cell of every layer (volume::crossedCellBoxes) and cover the pixel's samples. Every
+/// crossing along the pixel's rays lies in such a box, so marching need only cover that span, and
+/// pixels no box covers see the background. Empty when it does not apply: the eye inside a layer,
+/// a box not wholly in front of a perspective camera, a non-affine transform.
+std::vector<DepthSpan> depthPrepass(const openvdb::FloatGrid& grid, const std::vector<openvdb::CoordBBox>& boxes,
+                                    const detail::RayGenerator& gen, const RenderOptions& o) {
+    const auto& xform = grid.transform();
+    const std::size_t pixels = static_cast<std::size_t>(o.width) * static_cast<std::size_t>(o.height);
+    std::vector<DepthSpan> depth(pixels);
+    if (boxes.empty()) return depth;
+    // Index space to view space (right, up, forward from the eye) as one affine map, so that a box's
+    // eight corners are its first corner plus sums of three edge vectors.
+    const openvdb::Mat4d m = xform.baseMap()->getAffineMap()->getMat4();  // row vectors: world = index * m
+    const glm::dvec3 axes[3] = {glm::dvec3(gen.right()), glm::dvec3(gen.up()), glm::dvec3(gen.forward())};
+    const glm::dvec3 eyeD(gen.camera().eye);
+    double lin[3][3], off[3];  // view_k = sum_j lin[k][j] * index_j + off[k]
+    for (int k = 0; k < 3; ++k) {
+        for (int j = 0; j < 3; ++j) lin[k][j] = axes[k].x * m(j, 0) + axes[k].y * m(j, 1) + axes[k].z * m(j, 2);
+        off[k] = axes[k].x * (m(3, 0) - eyeD.x) + axes[k].y * (m(3, 1) - eyeD.y) + axes[k].z * (m(3, 2) - eyeD.z);
+    }
+    float cx, cy, sx, sy;
+    gen.projection(cx, cy, sx, sy);
+    const bool ortho = gen.camera().orthographic;
+    std::atomic<bool> behind{false};
+    const bool centreOnly = o.spp <= 1;
+    tbb::enumerable_thread_specific<std::vector<DepthSpan>> buffers([&] { return std::vector<DepthSpan>(pixels); });
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, boxes.size(), 256), [&](const auto& r) {
+        std::vector<DepthSpan>& buf = buffers.local();
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+            const openvdb::CoordBBox& box = boxes[i];
+            const double b0[3] = {double(box.min().x()), double(box.min().y()), double(box.min().z())};
+            const double e[3] = {double(box.max().x()) - b0[0], double(box.max().y()) - b0[1],
+                                 double(box.max().z()) - b0[2]};
+            double v0[3], ex[3], ey[3], ez[3];
+            for (int k = 0; k < 3; ++k) {
+                v0[k] = lin[k][0] * b0[0] + lin[k][1] * b0[1] + lin[k][2] * b0[2] + off[k];
+                ex[k] = lin[k][0] * e[0];
+                ey[k] = lin[k][1] * e[1];
+                ez[k] = lin[k][2] * e[2];
+            }
+            float x0 = kInf, y0 = kInf, x1 = -kInf, y1 = -kInf, dmin = kInf, dmax = -kInf;
+            double corner[8][3];
+            for (int k = 0; k < 3; ++k) {
+                corner[0][k] = v0[k];
+                corner[1][k] = v0[k] + ex[k];
+                corner[2][k] = v0[k] + ey[k];
+                corner[3][k] = corner[1][k] + ey[k];
+                for (int c = 0; c < 4; ++c) corner[c + 4][k] = corner[c][k] + ez[k];
+            }
+            for (const double* v : corner) {
+                if (!ortho && v[2] <= 1e-6) {
+                    behind = true;
+                    return;
+                }
+                const double inv = ortho ? 1.0 : 1.0 / v[2];
+                const float px = cx + sx * float(v[0] * inv), py = cy - sy * float(v[1] * inv), d = float(v[2]);
+                x0 = std::min(x0, px);
+                x1 = std::max(x1, px);
+                y0 = std::min(y0, py);
+                y1 = std::max(y1, py);
+                dmin = std::min(dmin, d);
+                dmax = std::max(dmax, d);
+            }
+            // The pixels whose samples may fall in the box's projection: with one sample per pixel,
+            // those whose centre it covers; with several (jittered in the pixel), those it overlaps.
+            // A hundredth of a pixel of slack covers rounding.
+            constexpr float kSlack = 0.01f;
+            const float W = float(o.width), H = float(o.height);
+            if (x1 < -1.f || y1 < -1.f || x0 > W + 1.f || y0 > H + 1.f) continue;
+            x0 = std::max(x0, -2.f) - kSlack;
+            y0 = std::max(y0, -2.f) - kSlack;
+            x1 = std::min(x1, W + 2.f) + kSlack;
+            y1 = std::min(y1, H + 2.f) + kSlack;
+            const int ix0 = std::max(0, centreOnly ? -floorInt(0.5 - x0) : floorInt(x0));
+            const int iy0 = std::max(0, centreOnly ? -floorInt(0.5 - y0) : floorInt(y0));
+            const int ix1 = std::min(o.width - 1, floorInt(centreOnly ? x1 - 0.5 : x1));
+            const int iy1 = std::min(o.height - 1, floorInt(centreOnly ? y1 - 0.5 : y1));
+            for (int y = iy0; y <= iy1; ++y) {
+                DepthSpan* row = buf.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(o.width);
+                for (int x = ix0; x <= ix1; ++x) {
+                    row[x].near = std::min(row[x].near, dmin);
+                    row[x].far = std::max(row[x].far, dmax);
+                }
+            }
+        }
+    });
+    if (behind) return {};
+    for (const auto& buf : buffers)
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pixels, 1 << 14), [&](const auto& r) {
+            for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                depth[i].near = std::min(depth[i].near, buf[i].near);
+                depth[i].far = std::max(depth[i].far, buf[i].far);
+            }
+        });
+    return depth;
+}
+
 }  // namespace
 
-Frame marchGrid(const openvdb::FloatGrid& grid, const std::vector<IsoLayer>& layers, bool insideBelow, const Look& look,
-                const RenderOptions& o, RenderStats* stats) {
+struct PreparedGrid::Impl {
+    Impl(const openvdb::FloatGrid& g, std::vector<IsoLayer> l, bool below)
+        : grid(g), layers(std::move(l)), insideBelow(below), table(g) {}
+    const openvdb::FloatGrid& grid;
+    const std::vector<IsoLayer> layers;
+    const bool insideBelow;
+    const LeafTable table;
+    std::vector<openvdb::CoordBBox> boxes;  ///< crossed cells of every layer; empty for non-affine transforms
+    bool empty = false;                     ///< no active values
+    bool prepass = true;                    ///< use the depth pre-pass where it applies
+    double setupSeconds = 0;
+};
+
+PreparedGrid::PreparedGrid(const openvdb::FloatGrid& grid, std::vector<IsoLayer> layers, bool insideBelow,
+                           bool depthPrepass) {
     const auto start = std::chrono::steady_clock::now();
-    if (o.width <= 0 || o.height <= 0) throw std::invalid_argument("image size must be positive");
     if (layers.empty() || layers.size() > 16) throw std::invalid_argument("give 1 to 16 iso-surfaces");
     if (!grid.hasUniformVoxels())
         throw std::invalid_argument("the grid's voxels are not cubes: render it with --method mesh");
+    impl_ = std::make_unique<Impl>(grid, std::move(layers), insideBelow);
+    impl_->empty = !grid.tree().cbeginValueOn();
+    impl_->prepass = depthPrepass && grid.transform().isLinear();
+    if (!impl_->empty && impl_->prepass)
+        for (const IsoLayer& l : impl_->layers) {
+            auto b = volume::crossedCellBoxes(
+                grid, l.iso, insideBelow ? volume::InsideSide::Below : volume::InsideSide::Above, kBrick);
+            impl_->boxes.insert(impl_->boxes.end(), b.begin(), b.end());
+        }
+    impl_->setupSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+PreparedGrid::~PreparedGrid() = default;
+
+double PreparedGrid::setupSeconds() const {
+    return impl_->setupSeconds;
+}
+
+Frame PreparedGrid::render(const Look& look, const RenderOptions& o, RenderStats* stats) const {
+    const auto start = std::chrono::steady_clock::now();
+    if (o.width <= 0 || o.height <= 0) throw std::invalid_argument("image size must be positive");
+    const openvdb::FloatGrid& grid = impl_->grid;
+    const std::vector<IsoLayer>& layers = impl_->layers;
+    const bool insideBelow = impl_->insideBelow;
     const std::vector<Light> lights = look.lights.empty() ? defaultLights(look.camera) : look.lights;
     const detail::Background background(look);
     std::uint64_t hitPixels = 0;
-    if (grid.tree().activeVoxelCount() == 0 && grid.tree().activeTileCount() == 0) {
+    if (impl_->empty) {
         Frame f = detail::renderTiles(
             look, o,
             [&](const detail::Ray&, std::size_t, std::size_t, float py) {
@@ -242,19 +612,29 @@ Frame marchGrid(const openvdb::FloatGrid& grid, const std::vector<IsoLayer>& lay
         if (stats) stats->warnings.push_back("the grid has no active values: nothing to render");
         return f;
     }
-    const Intersector master(grid);
-    tbb::enumerable_thread_specific<ThreadState> states([&] { return ThreadState{master, Accessor(grid.tree())}; });
+    const SharedIntersector master(grid);
+    tbb::enumerable_thread_specific<ThreadState> states([&] { return ThreadState(master, grid, impl_->table); });
     const GridMarcher marcher(grid, layers, insideBelow);
     const auto& xform = grid.transform();
     const double voxel = grid.voxelSize()[0];
 
+    // World to index: an affine map computed once (OpenVDB's maps are virtual calls per point).
+    const bool affine = xform.isLinear();
+    openvdb::Mat4d toIndex = openvdb::Mat4d::identity();
+    if (affine) toIndex = xform.baseMap()->getAffineMap()->getMat4().inverse();  // row vectors: index = world * M
     auto toIndexRay = [&](const glm::vec3& o3, const glm::vec3& d3) {
-        const IndexRay w(openvdb::Vec3d(o3.x, o3.y, o3.z), openvdb::Vec3d(d3.x, d3.y, d3.z));
-        return w.worldToIndex(grid);  // index-ray time = world distance / voxel size
+        const openvdb::Vec3d wo(o3.x, o3.y, o3.z), wd(d3.x, d3.y, d3.z);
+        if (!affine) {
+            const IndexRay r = IndexRay(wo, wd).worldToIndex(grid);  // time = world distance / voxel size
+            return Line{r.eye(), r.dir()};
+        }
+        openvdb::Vec3d d = toIndex.transform3x3(wd);
+        d.normalize();
+        return Line{toIndex.transform(wo), d};
     };
     auto blocked = [&](ThreadState& st, const glm::vec3& origin, const glm::vec3& d, float tmax) {
         // Shadows: only opaque layers block light.
-        const IndexRay r = toIndexRay(origin, d);
+        const Line r = toIndexRay(origin, d);
         double t = 0;
         const double end = std::isfinite(tmax) ? double(tmax) / voxel : std::numeric_limits<double>::max();
         for (int k = 0; k < 16; ++k) {
@@ -265,97 +645,70 @@ Frame marchGrid(const openvdb::FloatGrid& grid, const std::vector<IsoLayer>& lay
         }
         return false;
     };
-    // Depth pre-pass for level sets seen from outside: the nearest view depth, per pixel, of the leaf
-    // nodes whose values come within 1.5 voxels of an iso-value (where every crossing lies). A ray's
-    // first crossing is inside one of the boxes its pixel is covered by, so marching may start at that
-    // depth, and pixels no box covers see the background. Rays that find nothing near their start fall
-    // back to the full traversal.
+    std::vector<glm::vec3> albedo;
+    for (const IsoLayer& l : layers) albedo.push_back(srgbToLinear(glm::vec3(l.material.color)));
     const detail::RayGenerator gen(look.camera, o.width, o.height);
-    std::vector<float> nearDepth;
+    // The depth pre-pass applies when the eye is outside every layer (nothing is crossed before the
+    // first box along any ray).
+    std::vector<DepthSpan> span;
     {
-        const openvdb::Vec3d eyeIndex =
+        ThreadState probe(master, grid, impl_->table);
+        const openvdb::Vec3d e =
             xform.worldToIndex(openvdb::Vec3d(look.camera.eye.x, look.camera.eye.y, look.camera.eye.z));
-        openvdb::CoordBBox grown = grid.evalActiveVoxelBoundingBox();
-        grown.expand(2);
-        const bool eyeOutside = !grown.isInside(openvdb::Coord::floor(eyeIndex));
-        if (grid.getGridClass() == openvdb::GRID_LEVEL_SET && grid.tree().activeTileCount() == 0 && eyeOutside &&
-            xform.isLinear()) {
-            nearDepth.assign(static_cast<std::size_t>(o.width) * static_cast<std::size_t>(o.height),
-                             std::numeric_limits<float>::infinity());
-            const float reach = float(1.5 * voxel);
-            bool ok = true;
-            for (auto leaf = grid.tree().cbeginLeaf(); leaf && ok; ++leaf) {
-                float lo = kInf, hi = -kInf;
-                for (auto v = leaf->cbeginValueAll(); v; ++v) {
-                    lo = std::min(lo, *v);
-                    hi = std::max(hi, *v);
-                }
-                bool surface = false;
-                for (const IsoLayer& l : layers) surface = surface || (lo - l.iso < reach && hi - l.iso > -reach);
-                if (!surface) continue;
-                const openvdb::Coord org = leaf->origin();
-                float x0 = kInf, y0 = kInf, x1 = -kInf, y1 = -kInf, dmin = kInf;
-                for (int c = 0; c < 8; ++c) {
-                    const openvdb::Vec3d ic(org.x() + (c & 1 ? 9.0 : -1.0), org.y() + (c & 2 ? 9.0 : -1.0),
-                                            org.z() + (c & 4 ? 9.0 : -1.0));
-                    const openvdb::Vec3d w = xform.indexToWorld(ic);
-                    float px, py, d;
-                    if (!gen.project(glm::vec3(float(w.x()), float(w.y()), float(w.z())), px, py, d)) {
-                        ok = false;
-                        break;
-                    }
-                    x0 = std::min(x0, px);
-                    x1 = std::max(x1, px);
-                    y0 = std::min(y0, py);
-                    y1 = std::max(y1, py);
-                    dmin = std::min(dmin, d);
-                }
-                if (!ok) break;
-                // One pixel of margin: samples are jittered inside their pixel.
-                const int ix0 = std::max(0, int(std::floor(x0)) - 1), ix1 = std::min(o.width - 1, int(x1) + 1);
-                const int iy0 = std::max(0, int(std::floor(y0)) - 1), iy1 = std::min(o.height - 1, int(y1) + 1);
-                for (int y = iy0; y <= iy1; ++y)
-                    for (int x = ix0; x <= ix1; ++x) {
-                        float& z = nearDepth[static_cast<std::size_t>(y) * static_cast<std::size_t>(o.width) +
-                                             static_cast<std::size_t>(x)];
-                        z = std::min(z, dmin);
-                    }
-            }
-            if (!ok) nearDepth.clear();
-        }
+        if (impl_->prepass && marcher.insideMask(GridMarcher::sample(probe, e)) == 0)
+            span = depthPrepass(grid, impl_->boxes, gen, o);
     }
-    auto trace = [&](const detail::Ray& ray, std::size_t pix, std::size_t s, float py) {
-        ThreadState& st = states.local();
-        detail::SampleResult out;
+    // Fills `out` (reset by the caller) for one camera sample.
+    auto trace = [&](ThreadState& st, const detail::Ray& ray, std::size_t pix, std::size_t s, float py,
+                     detail::SampleResult& out) {
         glm::vec3 acc(0.f);
         float transmit = 1.f;
-        const IndexRay iray = toIndexRay(ray.origin, ray.dir);
+        const Line iray = toIndexRay(ray.origin, ray.dir);
         double t = 0;
+        double tEnd = std::numeric_limits<double>::max();
         std::optional<Crossing> early;
-        if (!nearDepth.empty()) {
-            const float d = nearDepth[pix];
-            if (!std::isfinite(d)) {
-                out.color = background.at(py, o.height);
-                return out;
-            }
-            // Start at the box depth (a little before), look for a crossing within four leaves.
-            t = std::max(0.0, double(d) / double(glm::dot(ray.dir, gen.forward())) / voxel - 1.0);
+        bool confined = false;  // every crossing lies in [t, tEnd]
+        if (!span.empty()) {
+            // Every crossing along this ray lies between the pixel's span depths: march that stretch
+            // alone, from outside (the eye is outside every layer, and nothing is crossed before).
+            const DepthSpan& d = span[pix];
             bool startInside = false;
-            early = marcher.near(st.acc, iray, t, t + 32.0, startInside);
-            if (startInside) t = 0;
+            if (d.near <= d.far) {
+                const double perDepth = 1.0 / double(glm::dot(ray.dir, gen.forward())) / voxel;
+                t = std::max(0.0, double(d.near) * perDepth - 0.01);
+                tEnd = double(d.far) * perDepth + 0.01;
+                early = marcher.near(st, iray, t, tEnd, startInside);
+            }
+            if (startInside) {  // a rounding surprise: march the whole ray instead
+                t = 0;
+                tEnd = std::numeric_limits<double>::max();
+            } else if (early) {
+                confined = true;
+            } else {
+                out.color = background.at(py, o.height);
+                return;
+            }
         }
         for (int layer = 0; layer < 16 && transmit > 0.004f; ++layer) {
-            const auto c = layer == 0 && early ? early : marcher.first(st, iray, t, std::numeric_limits<double>::max());
+            // Behind the first layer: within the pre-pass span, stepping it; else the tree traversal.
+            bool unused = false;
+            const auto c = layer == 0 && early ? early
+                           : confined          ? marcher.near(st, iray, t, tEnd, unused, false)
+                                               : marcher.first(st, iray, t, tEnd);
             if (!c) break;
             const openvdb::Vec3d ip = iray(c->t);
-            const openvdb::Vec3d wp = xform.indexToWorld(ip);
             const IsoLayer& L = layers[static_cast<std::size_t>(c->layer)];
             detail::Surface surf;
-            surf.position = glm::vec3(wp.x(), wp.y(), wp.z());
-            glm::vec3 n = marcher.normal(st.acc, ip);
+            if (affine) {
+                surf.position = ray.origin + ray.dir * float(c->t * voxel);
+            } else {
+                const openvdb::Vec3d wp = xform.indexToWorld(ip);
+                surf.position = glm::vec3(wp.x(), wp.y(), wp.z());
+            }
+            glm::vec3 n = c->hasGradient ? marcher.worldNormal(c->gradient, ip) : marcher.normal(st, ip);
             if (glm::dot(n, ray.dir) > 0) n = -n;
             surf.normal = n;
-            surf.albedo = srgbToLinear(glm::vec3(L.material.color));
+            surf.albedo = albedo[static_cast<std::size_t>(c->layer)];
             surf.setMaterial(L.material);
             const glm::vec3 origin = surf.position + n * float(0.75 * voxel);
             const float tWorld = float(c->t * voxel);
@@ -374,9 +727,15 @@ Frame marchGrid(const openvdb::FloatGrid& grid, const std::vector<IsoLayer>& lay
             t = c->t + 0.3;  // past this crossing
         }
         out.color = acc + transmit * background.at(py, o.height);
-        return out;
     };
-    Frame f = detail::renderTiles(look, o, trace, hitPixels);
+    Frame f = detail::renderBlocks(
+        look, o,
+        [&](const detail::Ray* rays, int n, const std::size_t* pix, std::size_t s, const float* py,
+            detail::SampleResult* out) {
+            ThreadState& st = states.local();
+            for (int k = 0; k < n; ++k) trace(st, rays[k], pix[k], s, py[k], out[k]);
+        },
+        hitPixels);
     if (stats) {
         stats->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         stats->primaryRays = f.pixels() * static_cast<std::size_t>(std::max(o.spp, 1));
@@ -386,6 +745,17 @@ Frame marchGrid(const openvdb::FloatGrid& grid, const std::vector<IsoLayer>& lay
         Accessor a(grid.tree());
         if (marcher.insideMask(openvdb::tools::BoxSampler::sample(a, e)) != 0)
             stats->warnings.push_back("the camera is inside a surface: the view shows it from inside");
+    }
+    return f;
+}
+
+Frame marchGrid(const openvdb::FloatGrid& grid, const std::vector<IsoLayer>& layers, bool insideBelow, const Look& look,
+                const RenderOptions& options, RenderStats* stats) {
+    const PreparedGrid prepared(grid, layers, insideBelow);
+    Frame f = prepared.render(look, options, stats);
+    if (stats) {
+        stats->setupSeconds = prepared.setupSeconds();
+        stats->seconds += prepared.setupSeconds();
     }
     return f;
 }

@@ -52,6 +52,17 @@ public:
         return (c_.orthographic ? 2.f * half_ : 2.f * half_ * std::max(t, 1e-6f)) / float(h_);
     }
     const glm::vec3& forward() const { return f_; }
+    const glm::vec3& right() const { return r_; }
+    const glm::vec3& up() const { return u_; }
+    const Camera& camera() const { return c_; }
+    /// Pixel x = centreX + scaleX * (view x / view depth), y = centreY - scaleY * (view y / view
+    /// depth) for perspective cameras; without the division for orthographic ones.
+    void projection(float& centreX, float& centreY, float& scaleX, float& scaleY) const {
+        centreX = 0.5f * float(w_);
+        centreY = 0.5f * float(h_);
+        scaleX = 0.5f * float(w_) / (half_ * aspect_);
+        scaleY = 0.5f * float(h_) / half_;
+    }
     /// Pixel position (x, y) and view depth (along forward()) of a world point; false when the
     /// point is not in front of a perspective camera.
     bool project(const glm::vec3& p, float& x, float& y, float& depth) const {

@@ -1,5 +1,6 @@
 #include <cmath>
 #include <functional>
+#include <map>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -316,4 +317,87 @@ TEST(MarchingCubes, EmptyAndUniformGridsGiveEmptyMeshes) {
     full->setGridClass(openvdb::GRID_LEVEL_SET);
     full->tree().fill(openvdb::CoordBBox(Coord(0), Coord(20)), -1.f, true);
     EXPECT_TRUE(meshOf(*full).empty());  // inside everywhere: no surface
+}
+
+namespace {
+
+/// Checks crossedCellBoxes against every cell of `region` visited one by one: each crossed cell lies
+/// in a box, and every box is tight (its faces touch crossed cells).
+void expectBoxesHoldEveryCrossedCell(const FloatGrid& g, float iso, bool below, const openvdb::CoordBBox& region,
+                                     int brick, const std::string& what) {
+    const auto boxes =
+        volume::crossedCellBoxes(g, iso, below ? volume::InsideSide::Below : volume::InsideSide::Above, brick);
+    auto acc = g.getConstAccessor();
+    auto inside = [&](const Coord& c) {
+        const float v = acc.getValue(c);
+        return below ? v < iso : v > iso;
+    };
+    auto crossed = [&](const Coord& c) {
+        int n = 0;
+        for (int i = 0; i < 8; ++i) n += inside(c.offsetBy(i >> 2, (i >> 1) & 1, i & 1));
+        return n > 0 && n < 8;
+    };
+    // Index the boxes by their lower cell's 8^3 block (each box lies in one block).
+    std::map<Coord, std::vector<openvdb::CoordBBox>> byBlock;
+    for (const auto& b : boxes) {
+        EXPECT_LE(b.max().x() - b.min().x(), brick) << what;
+        byBlock[Coord(b.min().x() & ~7, b.min().y() & ~7, b.min().z() & ~7)].push_back(b);
+    }
+    std::size_t count = 0, missing = 0;
+    for (auto it = region.begin(); it; ++it) {
+        const Coord c = *it;
+        if (!crossed(c)) continue;
+        ++count;
+        bool found = false;
+        for (const auto& b : byBlock[Coord(c.x() & ~7, c.y() & ~7, c.z() & ~7)])
+            found = found || (c.x() >= b.min().x() && c.x() < b.max().x() && c.y() >= b.min().y() &&
+                              c.y() < b.max().y() && c.z() >= b.min().z() && c.z() < b.max().z());
+        missing += !found;
+    }
+    EXPECT_GT(count, 0u) << what;
+    EXPECT_EQ(missing, 0u) << what << ": crossed cells outside every box, of " << count;
+    // Tight: each box's lowest and highest cells along x hold a crossed cell.
+    std::size_t loose = 0;
+    for (const auto& b : boxes) {
+        bool lo = false, hi = false;
+        for (int y = b.min().y(); y < b.max().y(); ++y)
+            for (int z = b.min().z(); z < b.max().z(); ++z) {
+                lo = lo || crossed(Coord(b.min().x(), y, z));
+                hi = hi || crossed(Coord(b.max().x() - 1, y, z));
+            }
+        loose += !(lo && hi);
+    }
+    EXPECT_EQ(loose, 0u) << what;
+}
+
+}  // namespace
+
+TEST(MarchingCubes, CrossedCellBoxesHoldEveryCrossedCell) {
+    // What the ray marcher's depth pre-pass relies on, on a level set, noise (crossings everywhere,
+    // exact hits), and a fog volume of active tiles next to leaves and background.
+    auto sphere = openvdb::tools::createLevelSetSphere<FloatGrid>(9.3f, Vec3f(0.4f, -0.2f, 0.1f), 1.f, 3.f);
+    for (int brick : {2, 4, 8})
+        expectBoxesHoldEveryCrossedCell(*sphere, 0.f, true, openvdb::CoordBBox(Coord(-16), Coord(16)), brick,
+                                        "sphere, brick " + std::to_string(brick));
+    expectBoxesHoldEveryCrossedCell(*sphere, 1.5f, true, openvdb::CoordBBox(Coord(-16), Coord(16)), 2,
+                                    "sphere iso 1.5");
+
+    std::mt19937 rng(7);
+    std::uniform_int_distribution<int> level(-2, 2);
+    auto noise = FloatGrid::create(10.f);
+    noise->setGridClass(openvdb::GRID_UNKNOWN);
+    for (int i = -9; i < 11; ++i)
+        for (int j = -5; j < 13; ++j)
+            for (int k = 3; k < 17; ++k) noise->tree().setValue(Coord(i, j, k), 0.5f * float(level(rng)));
+    for (float iso : {-0.5f, 0.f, 0.3f})
+        expectBoxesHoldEveryCrossedCell(*noise, iso, true, openvdb::CoordBBox(Coord(-12, -8, 0), Coord(13, 15, 19)), 2,
+                                        "noise iso " + std::to_string(iso));
+
+    auto fog = FloatGrid::create(0.f);
+    fog->setGridClass(openvdb::GRID_FOG_VOLUME);
+    fog->tree().fill(openvdb::CoordBBox(Coord(0), Coord(127)), 1.f, true);                // a 128^3 tile
+    fog->tree().fill(openvdb::CoordBBox(Coord(128, 0, 0), Coord(135, 7, 7)), 1.f, true);  // a leaf-sized tile
+    fog->tree().setValue(Coord(60, 128, 60), 1.f);                                        // a voxel on its face
+    fog->tree().setValue(Coord(-3, 5, 5), 0.9f);
+    expectBoxesHoldEveryCrossedCell(*fog, 0.5f, false, openvdb::CoordBBox(Coord(-5), Coord(140)), 2, "fog tiles");
 }

@@ -5,10 +5,14 @@
 #include <cstdlib>
 #include <cstring>
 #include <optional>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include <openvdb/tools/Interpolation.h>
 #include "csg/nodes.h"
 #include "csg/scene.h"
 #include "implicit/primitives.h"
@@ -16,6 +20,7 @@
 #include "render/grid_march.h"
 #include "render/image.h"
 #include "render/ray_march.h"
+#include "render/shading.h"
 #include "test_util.h"
 #include "volume/marching_cubes.h"
 #include "volume/sample.h"
@@ -210,18 +215,24 @@ TEST(Renderers, SamePixelsWhateverTheThreadCount) {
     render::Look look;
     look.camera = render::frameBox(s.root->bounds(), 160.f / 120.f);
     const mesh::TriMesh m = meshOf(s.root, 0.02f);
-    std::optional<render::Frame> first, firstMesh;
+    const auto grid = volume::readFloatGrid(test::sourceDir() / "data/sphere.vdb");
+    render::Look gridLook;
+    gridLook.camera = render::frameBox({glm::vec3(-3.f), glm::vec3(3.f)}, 160.f / 120.f);
+    std::optional<render::Frame> first, firstMesh, firstGrid;
     for (int threads : {1, 2, 4}) {
         tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
         const render::Frame f = render::marchField(s.root, s.root->bounds().expanded(0.05f), look, o);
         const render::Frame g = render::renderMeshes({{&m, {}, false}}, look, o);
+        const render::Frame v = render::marchGrid(*grid, {render::IsoLayer{}}, true, gridLook, o);
         if (!first) {
             first = f;
             firstMesh = g;
+            firstGrid = v;
             continue;
         }
         EXPECT_EQ(std::memcmp(first->color.data(), f.color.data(), f.color.size() * sizeof(glm::vec4)), 0);
         EXPECT_EQ(std::memcmp(firstMesh->color.data(), g.color.data(), g.color.size() * sizeof(glm::vec4)), 0);
+        EXPECT_EQ(std::memcmp(firstGrid->color.data(), v.color.data(), v.color.size() * sizeof(glm::vec4)), 0);
     }
 }
 
@@ -272,5 +283,145 @@ TEST(Renderers, GoldenImages) {
         }
         EXPECT_LT(sum / double(now.pixels.size()), 1.5) << c.name;
         EXPECT_LT(double(off) / double(now.pixels.size()), 0.01) << c.name;
+    }
+}
+
+namespace {
+
+/// The first crossing of any layer along a ray, by brute force: steps of a fifth of a voxel through
+/// the grid's active box, then bisection. {-1, -1} when there is none.
+std::pair<float, int> bruteFirstHit(const openvdb::FloatGrid& g, const std::vector<render::IsoLayer>& layers,
+                                    bool below, const render::detail::Ray& r) {
+    const openvdb::CoordBBox ib = g.evalActiveVoxelBoundingBox();
+    const openvdb::Vec3d lo = g.indexToWorld(ib.min().asVec3d() - openvdb::Vec3d(1.0)),
+                         hi = g.indexToWorld(ib.max().asVec3d() + openvdb::Vec3d(1.0));
+    float t0 = 0.f, t1 = 1e30f;
+    for (int k = 0; k < 3; ++k) {
+        const float a = (float(lo[k]) - r.origin[k]) / r.dir[k], b = (float(hi[k]) - r.origin[k]) / r.dir[k];
+        t0 = std::max(t0, std::min(a, b));
+        t1 = std::min(t1, std::max(a, b));
+    }
+    if (t0 > t1) return {-1.f, -1};
+    openvdb::tools::GridSampler<openvdb::FloatGrid, openvdb::tools::BoxSampler> smp(g);
+    auto mask = [&](float t) {
+        const glm::vec3 p = r.origin + t * r.dir;
+        const float v = smp.wsSample(openvdb::Vec3d(p.x, p.y, p.z));
+        unsigned m = 0;
+        for (std::size_t i = 0; i < layers.size(); ++i)
+            if (below ? v < layers[i].iso : v > layers[i].iso) m |= 1u << i;
+        return m;
+    };
+    const float step = 0.2f * float(g.voxelSize()[0]);
+    const unsigned m0 = mask(t0);
+    for (float t = t0 + step; t <= t1; t += step) {
+        const unsigned m = mask(t);
+        if (m == m0) continue;
+        float a = t - step, b = t;
+        for (int k = 0; k < 30; ++k) (mask(0.5f * (a + b)) == m0 ? a : b) = 0.5f * (a + b);
+        const unsigned changed = mask(b) ^ m0;
+        for (int i = 0; i < 16; ++i)
+            if (changed & (1u << i)) return {b, i};
+    }
+    return {-1.f, -1};
+}
+
+}  // namespace
+
+TEST(Renderers, GridPrePassFindsWhatMarchingFromTheEyeFinds) {
+    // The depth pre-pass only starts rays late and stops them early: every first hit must be where a
+    // brute-force march (fifth-voxel steps, bisection) finds it, and level sets must look as when each
+    // ray is marched from the eye through the tree. A level set (Newton steps) in perspective and
+    // orthographic views, with one and four samples per pixel; a fog volume with active tiles and two
+    // iso-surfaces, the outer one translucent (half-voxel steps, bisection).
+    const auto sphere = volume::readFloatGrid(test::sourceDir() / "data/sphere.vdb");
+    auto fog = openvdb::FloatGrid::create(0.f);
+    fog->setGridClass(openvdb::GRID_FOG_VOLUME);
+    fog->setTransform(openvdb::math::Transform::createLinearTransform(0.05));
+    {
+        auto acc = fog->getAccessor();
+        for (int i = -40; i <= 40; ++i)
+            for (int j = -40; j <= 40; ++j)
+                for (int k = -40; k <= 40; ++k) {
+                    const float r = std::sqrt(float(i * i + j * j + k * k)) * 0.05f;
+                    if (r < 2.f) acc.setValue(openvdb::Coord(i, j, k), std::clamp(2.f - r, 0.f, 1.f));
+                }
+        fog->tree().fill(openvdb::CoordBBox(openvdb::Coord(24), openvdb::Coord(55)), 0.8f, true);  // tiles
+    }
+    render::IsoLayer outer, inner;
+    outer.iso = 0.3f;
+    outer.material.color = glm::vec4(0.3f, 0.5f, 1.f, 0.4f);
+    inner.iso = 0.7f;
+    inner.material.color = glm::vec4(1.f, 0.8f, 0.6f, 1.f);
+    struct Case {
+        const openvdb::FloatGrid* grid;
+        std::vector<render::IsoLayer> layers;
+        bool below, ortho;
+        int spp;
+        implicit::Box3 box;
+    };
+    const implicit::Box3 unit{glm::vec3(-3.f), glm::vec3(3.f)};
+    const implicit::Box3 fogBox{glm::vec3(-2.f), glm::vec3(2.8f)};
+    const Case cases[] = {{sphere.get(), {render::IsoLayer{}}, true, false, 1, unit},
+                          {sphere.get(), {render::IsoLayer{}}, true, true, 4, unit},
+                          {fog.get(), {outer, inner}, false, false, 1, fogBox},
+                          {fog.get(), {outer, inner}, false, true, 4, fogBox}};
+    for (const Case& c : cases) {
+        const int w = 160, h = 120;
+        auto o = small(w, h);
+        o.spp = c.spp;
+        o.depth = true;
+        o.objectId = true;
+        render::Look look;
+        look.camera = render::frameBox(c.box, float(w) / float(h), glm::vec3(0.3f, 1.f, 0.2f));
+        look.camera.orthographic = c.ortho;
+        const bool levelSet = c.grid == sphere.get();
+        const std::string what = std::string(levelSet ? "level set" : "fog") +
+                                 (c.ortho ? ", orthographic" : ", perspective") + ", spp " + std::to_string(c.spp);
+        const render::Frame fast = render::PreparedGrid(*c.grid, c.layers, c.below).render(look, o);
+        const float voxel = float(c.grid->voxelSize()[0]);
+        // Against brute force, on every fifth pixel (the first sample of a pixel is at its centre).
+        const render::detail::RayGenerator gen(look.camera, w, h);
+        std::size_t checked = 0, hitsDiffer = 0, depthsDiffer = 0, layersDiffer = 0;
+        for (std::size_t i = 0; i < fast.pixels(); i += 5) {
+            const auto [bt, bl] =
+                bruteFirstHit(*c.grid, c.layers, c.below, gen(float(i % w) + 0.5f, float(i / w) + 0.5f));
+            const bool fastHit = std::isfinite(fast.depth[i]);
+            ++checked;
+            if (fastHit != (bl >= 0)) {
+                ++hitsDiffer;
+                continue;
+            }
+            if (!fastHit) continue;
+            depthsDiffer += std::abs(fast.depth[i] - bt) > 0.1f * voxel;
+            layersDiffer += int(fast.objectId[i]) != bl + 1;
+        }
+        EXPECT_LE(hitsDiffer, checked / 500) << what << " (silhouette pixels)";
+        EXPECT_LE(depthsDiffer, checked / 200) << what;
+        EXPECT_LE(layersDiffer, checked / 500) << what;
+        if (!levelSet) continue;
+        // The tree traversal from the eye, the reference for level sets (on grids with active tiles it
+        // is the less accurate of the two: it does not sample the inside of tiles between leaves).
+        const render::Frame slow = render::PreparedGrid(*c.grid, c.layers, c.below, false).render(look, o);
+        EXPECT_GE(iou(fast, slow), 0.999) << what;
+        EXPECT_LT(meanColourDifference(fast, slow), 0.004) << what;
+    }
+}
+
+TEST(Renderers, PreparedGridRendersAnyViewAsOneCallWould) {
+    const auto grid = volume::readFloatGrid(test::sourceDir() / "data/sphere.vdb");
+    const render::PreparedGrid prepared(*grid, {render::IsoLayer{}}, true);
+    EXPECT_GE(prepared.setupSeconds(), 0.0);
+    for (const glm::vec3& from : {glm::vec3(0.f, -10.f, 3.f), glm::vec3(7.f, 2.f, -4.f)}) {
+        render::Look look;
+        look.camera.eye = from;
+        look.camera.target = glm::vec3(0.f);
+        look.camera.fov = 40.f;
+        const auto o = small(96, 72);
+        const render::Frame a = prepared.render(look, o);
+        render::RenderStats st;
+        const render::Frame b = render::marchGrid(*grid, {render::IsoLayer{}}, true, look, o, &st);
+        EXPECT_EQ(std::memcmp(a.color.data(), b.color.data(), a.color.size() * sizeof(glm::vec4)), 0);
+        EXPECT_GT(st.hitPixels, 0u);
+        EXPECT_LE(st.setupSeconds, st.seconds);
     }
 }

@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <memory>
 #include <numeric>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -644,6 +645,69 @@ void extract(const openvdb::FloatGrid& grid, const MeshingOptions& options, mesh
     }
 }
 
+/// Per 8^3 block, up to (8 / brick)^3 boxes (one per brick^3 sub-block) tight around its crossed cells.
+template <bool Below>
+std::vector<openvdb::CoordBBox> crossedBoxes(const openvdb::FloatGrid& grid, float iso, int brick) {
+    const int shift = brick >= 8 ? 3 : (brick >= 4 ? 2 : 1), per = 8 >> shift, count = per * per * per;
+    const Tree& tree = grid.tree();
+    KeyPacker packer;
+    std::size_t leafCount = 0;
+    const std::vector<std::uint64_t> keys = collectBlocks<Below>(tree, iso, packer, leafCount);
+    constexpr std::size_t kChunk = 256;
+    std::vector<std::vector<openvdb::CoordBBox>> parts((keys.size() + kChunk - 1) / kChunk);
+    tbb::parallel_for(std::size_t{0}, parts.size(), [&](std::size_t chunk) {
+        Accessor acc(tree);
+        Sources src;
+        Masks masks;
+        std::vector<openvdb::CoordBBox>& out = parts[chunk];
+        for (std::size_t bi = chunk * kChunk; bi < std::min(keys.size(), (chunk + 1) * kChunk); ++bi) {
+            const Coord origin = packer.unpack(keys[bi]);
+            src.load(acc, origin);
+            if (src.isUniform<Below>(iso)) continue;
+            computeMasks<Below>(src, iso, masks);
+            int lo[64][3], hi[64][3];
+            for (int b = 0; b < count; ++b) {
+                lo[b][0] = lo[b][1] = lo[b][2] = 8;
+                hi[b][0] = hi[b][1] = hi[b][2] = -1;
+            }
+            const int b = 1 << shift;
+            const std::uint32_t groupMask = (1u << b) - 1u;
+            for (int x = 0; x < 8; ++x)
+                for (int y = 0; y < 8; ++y) {
+                    // Cell z is crossed unless its eight corners (bits z and z + 1 of four columns)
+                    // are all inside or all outside.
+                    const std::uint32_t c0 = masks.mask[x][y], c1 = masks.mask[x + 1][y], c2 = masks.mask[x][y + 1],
+                                        c3 = masks.mask[x + 1][y + 1];
+                    const std::uint32_t any = c0 | c1 | c2 | c3, all = c0 & c1 & c2 & c3;
+                    const std::uint32_t crossed = ((any | (any >> 1)) & ~(all & (all >> 1))) & 0xFFu;
+                    if (!crossed) continue;
+                    for (int g = 0; g < per; ++g) {
+                        const std::uint32_t bits = (crossed >> (g * b)) & groupMask;
+                        if (!bits) continue;
+                        const int sb = ((x >> shift) * per + (y >> shift)) * per + g;
+                        const int zlo = g * b + std::countr_zero(bits), zhi = g * b + std::bit_width(bits);
+                        lo[sb][0] = std::min(lo[sb][0], x);
+                        hi[sb][0] = std::max(hi[sb][0], x + 1);
+                        lo[sb][1] = std::min(lo[sb][1], y);
+                        hi[sb][1] = std::max(hi[sb][1], y + 1);
+                        lo[sb][2] = std::min(lo[sb][2], zlo);
+                        hi[sb][2] = std::max(hi[sb][2], zhi);
+                    }
+                }
+            for (int sb = 0; sb < count; ++sb)
+                if (hi[sb][0] >= 0)
+                    out.emplace_back(origin.offsetBy(lo[sb][0], lo[sb][1], lo[sb][2]),
+                                     origin.offsetBy(hi[sb][0], hi[sb][1], hi[sb][2]));
+        }
+    });
+    std::vector<openvdb::CoordBBox> boxes;
+    std::size_t total = 0;
+    for (const auto& p : parts) total += p.size();
+    boxes.reserve(total);
+    for (const auto& p : parts) boxes.insert(boxes.end(), p.begin(), p.end());
+    return boxes;
+}
+
 }  // namespace
 
 bool insideIsBelow(const openvdb::FloatGrid& grid, InsideSide side) {
@@ -668,6 +732,12 @@ void extractIsosurface(const openvdb::FloatGrid& grid, const MeshingOptions& opt
             for (glm::uvec3& t : out.triangles) std::swap(t.y, t.z);
     }
     if (stats) *stats = local;
+}
+
+std::vector<openvdb::CoordBBox> crossedCellBoxes(const openvdb::FloatGrid& grid, float iso, InsideSide side,
+                                                 int brick) {
+    if (brick != 2 && brick != 4 && brick != 8) throw std::invalid_argument("brick must be 2, 4 or 8 cells");
+    return insideIsBelow(grid, side) ? crossedBoxes<true>(grid, iso, brick) : crossedBoxes<false>(grid, iso, brick);
 }
 
 mesh::TriMesh extractIsosurface(const openvdb::FloatGrid& grid, const MeshingOptions& options, MeshingStats* stats) {

@@ -2,6 +2,7 @@
 /// @file isoforge's parallel marching cubes on sparse OpenVDB grids.
 
 #include <cstddef>
+#include <vector>
 
 #include <openvdb/openvdb.h>
 
@@ -51,6 +52,15 @@ void extractIsosurface(const openvdb::FloatGrid& grid, const MeshingOptions& opt
 /// Convenience overload returning a new mesh.
 mesh::TriMesh extractIsosurface(const openvdb::FloatGrid& grid, const MeshingOptions& options = {},
                                 MeshingStats* stats = nullptr);
+
+/// Index-space boxes that together hold every cell the iso-surface crosses (a cell is crossed when
+/// its eight corners are not all on one side of `iso`; cell (i, j, k) spans [i, i+1] x [j, j+1] x
+/// [k, k+1], and each box's min and max are corners). At most one box per brick^3 cells (brick 2,
+/// 4 or 8), tight around the crossed cells in it, over the same blocks the mesher visits; in block
+/// order. The ray marcher's depth pre-pass rasterizes them: every crossing of the trilinear
+/// interpolant lies in one of these boxes.
+std::vector<openvdb::CoordBBox> crossedCellBoxes(const openvdb::FloatGrid& grid, float iso,
+                                                 InsideSide side = InsideSide::Auto, int brick = 4);
 
 /// True if `grid` is meshed with the inside below the iso-value under `side`.
 bool insideIsBelow(const openvdb::FloatGrid& grid, InsideSide side);
