@@ -342,8 +342,9 @@ public:
             float c[8];
             const openvdb::Vec3d p = ray(t);
             const openvdb::Vec3d f = corners(st, p, c);
-            const double dist = side * (double(trilinear(c, f)) - iso);  // > 0 outside (in value units)
-            const bool inside = below_ ? trilinear(c, f) < iso : trilinear(c, f) > iso;
+            const float v = trilinear(c, f);
+            const double dist = side * (double(v) - iso);  // > 0 outside (in value units)
+            const bool inside = below_ ? v < iso : v > iso;
             const openvdb::Vec3d g = gradient(c, f);
             const double rate = side * g.dot(ray.d);  // change of dist per unit of ray time
             if (inside) {
@@ -449,22 +450,35 @@ private:
     double inv_[3][3] = {};
 };
 
-/// View depths between which a pixel's rays may cross a surface.
+/// View depths between which a pixel's rays may cross a surface (near > far: none).
 struct DepthSpan {
-    float near = kInf, far = -kInf;
+    float near, far;
+};
+
+/// The pre-pass's result: one span per pixel, or none (the pre-pass does not apply).
+class DepthSpans {
+public:
+    DepthSpans() = default;
+    explicit DepthSpans(std::size_t pixels) : spans_(new DepthSpan[pixels]) {}  // filled by the caller
+    bool empty() const { return !spans_; }
+    DepthSpan& operator[](std::size_t i) { return spans_[i]; }
+    const DepthSpan& operator[](std::size_t i) const { return spans_[i]; }
+
+private:
+    std::unique_ptr<DepthSpan[]> spans_;
 };
 
 /// Depth pre-pass: per pixel, the nearest and farthest view depths of the boxes that hold every
 /// crossed cell of every layer (volume::crossedCellBoxes) and cover the pixel's samples. Every
 /// crossing along the pixel's rays lies in such a box, so marching need only cover that span, and
-/// pixels no box covers see the background. Empty when it does not apply: the eye inside a layer,
-/// a box not wholly in front of a perspective camera, a non-affine transform.
-std::vector<DepthSpan> depthPrepass(const openvdb::FloatGrid& grid, const std::vector<openvdb::CoordBBox>& boxes,
-                                    const detail::RayGenerator& gen, const RenderOptions& o) {
+/// pixels no box covers see the background. Empty when a box is not wholly in front of a perspective
+/// camera. Two parallel passes: the boxes' pixel rectangles, then bands of rows, each filling its
+/// rows from the rectangles that reach them (no per-thread image buffers to merge).
+DepthSpans depthPrepass(const openvdb::FloatGrid& grid, const std::vector<openvdb::CoordBBox>& boxes,
+                        const detail::RayGenerator& gen, const RenderOptions& o) {
     const auto& xform = grid.transform();
-    const std::size_t pixels = static_cast<std::size_t>(o.width) * static_cast<std::size_t>(o.height);
-    std::vector<DepthSpan> depth(pixels);
-    if (boxes.empty()) return depth;
+    const std::size_t width = static_cast<std::size_t>(o.width);
+    const std::size_t pixels = width * static_cast<std::size_t>(o.height);
     // Index space to view space (right, up, forward from the eye) as one affine map, so that a box's
     // eight corners are its first corner plus sums of three edge vectors.
     const openvdb::Mat4d m = xform.baseMap()->getAffineMap()->getMat4();  // row vectors: world = index * m
@@ -478,32 +492,33 @@ std::vector<DepthSpan> depthPrepass(const openvdb::FloatGrid& grid, const std::v
     float cx, cy, sx, sy;
     gen.projection(cx, cy, sx, sy);
     const bool ortho = gen.camera().orthographic;
-    std::atomic<bool> behind{false};
     const bool centreOnly = o.spp <= 1;
-    tbb::enumerable_thread_specific<std::vector<DepthSpan>> buffers([&] { return std::vector<DepthSpan>(pixels); });
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, boxes.size(), 256), [&](const auto& r) {
-        std::vector<DepthSpan>& buf = buffers.local();
+
+    // Pass 1: each box's rectangle of pixels (x0 > x1 when it covers none) and depth range.
+    struct Rect {
+        int x0, x1, y0, y1;
+        float dmin, dmax;
+    };
+    std::unique_ptr<Rect[]> rects(new Rect[boxes.size()]);
+    std::atomic<bool> behind{false};
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, boxes.size(), 1024), [&](const auto& r) {
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
+            Rect& out = rects[i];
+            out.x0 = 1;
+            out.x1 = 0;
             const openvdb::CoordBBox& box = boxes[i];
             const double b0[3] = {double(box.min().x()), double(box.min().y()), double(box.min().z())};
             const double e[3] = {double(box.max().x()) - b0[0], double(box.max().y()) - b0[1],
                                  double(box.max().z()) - b0[2]};
-            double v0[3], ex[3], ey[3], ez[3];
-            for (int k = 0; k < 3; ++k) {
-                v0[k] = lin[k][0] * b0[0] + lin[k][1] * b0[1] + lin[k][2] * b0[2] + off[k];
-                ex[k] = lin[k][0] * e[0];
-                ey[k] = lin[k][1] * e[1];
-                ez[k] = lin[k][2] * e[2];
-            }
-            float x0 = kInf, y0 = kInf, x1 = -kInf, y1 = -kInf, dmin = kInf, dmax = -kInf;
             double corner[8][3];
             for (int k = 0; k < 3; ++k) {
-                corner[0][k] = v0[k];
-                corner[1][k] = v0[k] + ex[k];
-                corner[2][k] = v0[k] + ey[k];
-                corner[3][k] = corner[1][k] + ey[k];
-                for (int c = 0; c < 4; ++c) corner[c + 4][k] = corner[c][k] + ez[k];
+                corner[0][k] = lin[k][0] * b0[0] + lin[k][1] * b0[1] + lin[k][2] * b0[2] + off[k];
+                corner[1][k] = corner[0][k] + lin[k][0] * e[0];
+                corner[2][k] = corner[0][k] + lin[k][1] * e[1];
+                corner[3][k] = corner[1][k] + lin[k][1] * e[1];
+                for (int c = 0; c < 4; ++c) corner[c + 4][k] = corner[c][k] + lin[k][2] * e[2];
             }
+            float x0 = kInf, y0 = kInf, x1 = -kInf, y1 = -kInf, dmin = kInf, dmax = -kInf;
             for (const double* v : corner) {
                 if (!ortho && v[2] <= 1e-6) {
                     behind = true;
@@ -528,27 +543,45 @@ std::vector<DepthSpan> depthPrepass(const openvdb::FloatGrid& grid, const std::v
             y0 = std::max(y0, -2.f) - kSlack;
             x1 = std::min(x1, W + 2.f) + kSlack;
             y1 = std::min(y1, H + 2.f) + kSlack;
-            const int ix0 = std::max(0, centreOnly ? -floorInt(0.5 - x0) : floorInt(x0));
-            const int iy0 = std::max(0, centreOnly ? -floorInt(0.5 - y0) : floorInt(y0));
-            const int ix1 = std::min(o.width - 1, floorInt(centreOnly ? x1 - 0.5 : x1));
-            const int iy1 = std::min(o.height - 1, floorInt(centreOnly ? y1 - 0.5 : y1));
-            for (int y = iy0; y <= iy1; ++y) {
-                DepthSpan* row = buf.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(o.width);
-                for (int x = ix0; x <= ix1; ++x) {
-                    row[x].near = std::min(row[x].near, dmin);
-                    row[x].far = std::max(row[x].far, dmax);
+            out.x0 = std::max(0, centreOnly ? -floorInt(0.5 - x0) : floorInt(x0));
+            out.y0 = std::max(0, centreOnly ? -floorInt(0.5 - y0) : floorInt(y0));
+            out.x1 = std::min(o.width - 1, floorInt(centreOnly ? x1 - 0.5 : x1));
+            out.y1 = std::min(o.height - 1, floorInt(centreOnly ? y1 - 0.5 : y1));
+            if (out.y0 > out.y1) out.x0 = out.x1 + 1;
+            out.dmin = dmin;
+            out.dmax = dmax;
+        }
+    });
+    if (behind) return {};
+
+    // Pass 2: rectangles listed per band of rows (counting sort), then the bands filled in parallel.
+    constexpr int kBandRows = 8;
+    const int bands = (o.height + kBandRows - 1) / kBandRows;
+    std::vector<std::uint32_t> start(static_cast<std::size_t>(bands) + 1, 0);
+    for (std::size_t i = 0; i < boxes.size(); ++i)
+        if (rects[i].x0 <= rects[i].x1)
+            for (int b = rects[i].y0 / kBandRows; b <= rects[i].y1 / kBandRows; ++b) ++start[std::size_t(b) + 1];
+    for (int b = 0; b < bands; ++b) start[std::size_t(b) + 1] += start[std::size_t(b)];
+    std::vector<std::uint32_t> list(start.back()), fill(start.begin(), start.end() - 1);
+    for (std::size_t i = 0; i < boxes.size(); ++i)
+        if (rects[i].x0 <= rects[i].x1)
+            for (int b = rects[i].y0 / kBandRows; b <= rects[i].y1 / kBandRows; ++b)
+                list[fill[std::size_t(b)]++] = static_cast<std::uint32_t>(i);
+    DepthSpans depth(pixels);
+    tbb::parallel_for(0, bands, [&](int b) {
+        const int r0 = b * kBandRows, r1 = std::min(o.height, r0 + kBandRows) - 1;
+        for (std::size_t i = std::size_t(r0) * width; i < std::size_t(r1 + 1) * width; ++i) depth[i] = {kInf, -kInf};
+        for (std::uint32_t k = start[std::size_t(b)]; k < start[std::size_t(b) + 1]; ++k) {
+            const Rect& rc = rects[list[k]];
+            for (int y = std::max(rc.y0, r0); y <= std::min(rc.y1, r1); ++y) {
+                DepthSpan* row = &depth[std::size_t(y) * width];
+                for (int x = rc.x0; x <= rc.x1; ++x) {
+                    row[x].near = std::min(row[x].near, rc.dmin);
+                    row[x].far = std::max(row[x].far, rc.dmax);
                 }
             }
         }
     });
-    if (behind) return {};
-    for (const auto& buf : buffers)
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pixels, 1 << 14), [&](const auto& r) {
-            for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                depth[i].near = std::min(depth[i].near, buf[i].near);
-                depth[i].far = std::max(depth[i].far, buf[i].far);
-            }
-        });
     return depth;
 }
 
@@ -650,7 +683,7 @@ Frame PreparedGrid::render(const Look& look, const RenderOptions& o, RenderStats
     const detail::RayGenerator gen(look.camera, o.width, o.height);
     // The depth pre-pass applies when the eye is outside every layer (nothing is crossed before the
     // first box along any ray).
-    std::vector<DepthSpan> span;
+    DepthSpans span;
     {
         ThreadState probe(master, grid, impl_->table);
         const openvdb::Vec3d e =
@@ -661,6 +694,10 @@ Frame PreparedGrid::render(const Look& look, const RenderOptions& o, RenderStats
     // Fills `out` (reset by the caller) for one camera sample.
     auto trace = [&](ThreadState& st, const detail::Ray& ray, std::size_t pix, std::size_t s, float py,
                      detail::SampleResult& out) {
+        if (!span.empty() && !(span[pix].near <= span[pix].far)) {  // no box covers this pixel
+            out.color = background.at(py, o.height);
+            return;
+        }
         glm::vec3 acc(0.f);
         float transmit = 1.f;
         const Line iray = toIndexRay(ray.origin, ray.dir);
