@@ -41,8 +41,11 @@ struct Line {
     openvdb::Vec3d operator()(double t) const { return o + d * t; }
 };
 
-/// floor() for index positions (std::floor is a library call without SSE4.1).
+/// floor() for index positions (std::floor is a library call without SSE4.1), clamped to a billion
+/// voxels either way (NaN to the low end) so that the conversion stays defined for any camera.
 inline int floorInt(double x) {
+    if (!(x > -1e9)) x = -1e9;
+    if (x > 1e9) x = 1e9;
     const int i = static_cast<int>(x);
     return i - (x < double(i));
 }

@@ -197,6 +197,15 @@ TEST(Renderers, DegenerateInputsGiveAnImageAndAWarning) {
     const auto empty = openvdb::FloatGrid::create(1.f);
     render::marchGrid(*empty, {render::IsoLayer{}}, true, look, o, &st);
     EXPECT_FALSE(st.warnings.empty());
+    // A grid seen from a trillion units away: background, no undefined index arithmetic (UBSan in CI).
+    {
+        const auto sphere = volume::readFloatGrid(test::sourceDir() / "data/sphere.vdb");
+        render::Look far = look;
+        far.camera.eye = glm::vec3(1e12f, -3e12f, 2e12f);
+        far.camera.target = glm::vec3(0.f);
+        const render::Frame f = render::marchGrid(*sphere, {render::IsoLayer{}}, true, far, o);
+        EXPECT_EQ(f.pixels(), 64u * 48u);
+    }
     // The camera inside a sphere: its inside is drawn, and a warning.
     st = {};
     render::Look inside = look;
