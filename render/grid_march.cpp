@@ -711,14 +711,12 @@ Frame PreparedGrid::render(const Look& look, const RenderOptions& o, RenderStats
         if (!span.empty()) {
             // Every crossing along this ray lies between the pixel's span depths: march that stretch
             // alone, from outside (the eye is outside every layer, and nothing is crossed before).
-            const DepthSpan& d = span[pix];
+            const DepthSpan& d = span[pix];  // covered: checked above
+            const double perDepth = 1.0 / double(glm::dot(ray.dir, gen.forward())) / voxel;
+            t = std::max(0.0, double(d.near) * perDepth - 0.01);
+            tEnd = double(d.far) * perDepth + 0.01;
             bool startInside = false;
-            if (d.near <= d.far) {
-                const double perDepth = 1.0 / double(glm::dot(ray.dir, gen.forward())) / voxel;
-                t = std::max(0.0, double(d.near) * perDepth - 0.01);
-                tEnd = double(d.far) * perDepth + 0.01;
-                early = marcher.near(st, iray, t, tEnd, startInside);
-            }
+            early = marcher.near(st, iray, t, tEnd, startInside);
             if (startInside) {  // a rounding surprise: march the whole ray instead
                 t = 0;
                 tEnd = std::numeric_limits<double>::max();
