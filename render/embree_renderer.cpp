@@ -79,37 +79,62 @@ std::vector<glm::vec3> vertexNormals(const mesh::TriMesh& m) {
 
 }  // namespace
 
-Frame renderMeshes(const std::vector<MeshObject>& objects, const Look& look, const RenderOptions& o,
-                   RenderStats* stats) {
-    const auto t0 = std::chrono::steady_clock::now();
-    if (o.width <= 0 || o.height <= 0) throw std::invalid_argument("image size must be positive");
-    DevicePtr device = makeDevice();
-    ScenePtr all(rtcNewScene(device.get())), opaque(rtcNewScene(device.get()));
-    rtcSetSceneBuildQuality(all.get(), RTC_BUILD_QUALITY_HIGH);
-    rtcSetSceneFlags(all.get(), RTC_SCENE_FLAG_ROBUST);  // watertight: no ray slips between two triangles
-    rtcSetSceneFlags(opaque.get(), RTC_SCENE_FLAG_ROBUST);
+struct PreparedMeshes::Impl {
+    DevicePtr device;
+    ScenePtr all, opaque;
     std::vector<ObjectData> data;
     bool anyTranslucent = false;
     implicit::Box3 box;
+    double setupSeconds = 0;
+};
+
+PreparedMeshes::PreparedMeshes(const std::vector<MeshObject>& objects) : impl_(std::make_unique<Impl>()) {
+    const auto t0 = std::chrono::steady_clock::now();
+    Impl& im = *impl_;
+    im.device = makeDevice();
+    im.all.reset(rtcNewScene(im.device.get()));
+    im.opaque.reset(rtcNewScene(im.device.get()));
+    rtcSetSceneBuildQuality(im.all.get(), RTC_BUILD_QUALITY_HIGH);
+    rtcSetSceneFlags(im.all.get(), RTC_SCENE_FLAG_ROBUST);  // watertight: no ray slips between two triangles
+    rtcSetSceneFlags(im.opaque.get(), RTC_SCENE_FLAG_ROBUST);
     for (const MeshObject& obj : objects) {
         if (!obj.mesh || obj.mesh->triangles.empty()) continue;
-        for (const auto& p : obj.mesh->positions) box = box.unite(implicit::Box3{p, p});
-        attachMesh(device.get(), all.get(), *obj.mesh);
+        for (const auto& p : obj.mesh->positions) im.box = im.box.unite(implicit::Box3{p, p});
+        attachMesh(im.device.get(), im.all.get(), *obj.mesh);
         ObjectData d{obj.mesh, vertexNormals(*obj.mesh), obj.material, srgbToLinear(glm::vec3(obj.material.color)),
                      obj.vertexColors && obj.mesh->colors.size() == obj.mesh->positions.size()};
-        if (obj.material.color.a < 1.f) anyTranslucent = true;
-        data.push_back(std::move(d));
+        double edges = 0;  // the mean edge, for the offset of secondary rays
+        for (const glm::uvec3& t : obj.mesh->triangles)
+            edges += double(glm::length(obj.mesh->positions[t.y] - obj.mesh->positions[t.x])) +
+                     glm::length(obj.mesh->positions[t.z] - obj.mesh->positions[t.y]) +
+                     glm::length(obj.mesh->positions[t.x] - obj.mesh->positions[t.z]);
+        d.offset = float(0.25 * edges / (3.0 * double(obj.mesh->triangles.size())));
+        if (obj.material.color.a < 1.f) im.anyTranslucent = true;
+        im.data.push_back(std::move(d));
     }
     // Shadows come from opaque objects only (translucent layers let light through).
-    if (anyTranslucent)
-        for (const ObjectData& d : data)
-            if (d.material.color.a >= 1.f) attachMesh(device.get(), opaque.get(), *d.mesh);
-    rtcCommitScene(all.get());
-    if (anyTranslucent) rtcCommitScene(opaque.get());
-    RTCScene shadowScene = anyTranslucent ? opaque.get() : all.get();
-    const double setup = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (im.anyTranslucent)
+        for (const ObjectData& d : im.data)
+            if (d.material.color.a >= 1.f) attachMesh(im.device.get(), im.opaque.get(), *d.mesh);
+    rtcCommitScene(im.all.get());
+    if (im.anyTranslucent) rtcCommitScene(im.opaque.get());
+    im.setupSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
 
-    const std::vector<Light> lights = look.lights.empty() ? defaultLights(look.camera) : look.lights;
+PreparedMeshes::~PreparedMeshes() = default;
+
+double PreparedMeshes::setupSeconds() const {
+    return impl_->setupSeconds;
+}
+
+Frame PreparedMeshes::render(const Look& look, const RenderOptions& o, RenderStats* stats) const {
+    const auto t0 = std::chrono::steady_clock::now();
+    if (o.width <= 0 || o.height <= 0) throw std::invalid_argument("image size must be positive");
+    const std::vector<ObjectData>& data = impl_->data;
+    RTCScene allScene = impl_->all.get();
+    RTCScene shadowScene = impl_->anyTranslucent ? impl_->opaque.get() : allScene;
+    const implicit::Box3& box = impl_->box;
+    const detail::LightSet lights(look);
     const detail::Background background(look);
     const float sceneSize = box.isEmpty() ? 1.f : glm::length(box.size());
     const float aoReach = o.aoDistance > 0 ? o.aoDistance : 0.05f * sceneSize;
@@ -153,7 +178,7 @@ Frame renderMeshes(const std::vector<MeshObject>& objects, const Look& look, con
             rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
             rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
             rtcInitIntersectContext(&ctx);
-            rtcIntersect1(all.get(), &ctx, &rh);
+            rtcIntersect1(allScene, &ctx, &rh);
             if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) break;
             const ObjectData& od = data[rh.hit.geomID];
             const glm::uvec3 tri = od.mesh->triangles[rh.hit.primID];
@@ -213,7 +238,7 @@ Frame renderMeshes(const std::vector<MeshObject>& objects, const Look& look, con
         RTCIntersectContext ctx;
         rtcInitIntersectContext(&ctx);
         ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-        rtcIntersect16(valid, all.get(), &ctx, &rh);
+        rtcIntersect16(valid, allScene, &ctx, &rh);
         detail::Surface surf[16];
         glm::vec3 origin[16];
         bool opaqueHit[16] = {};
@@ -262,26 +287,26 @@ Frame renderMeshes(const std::vector<MeshObject>& objects, const Look& look, con
             bool any = false;
             for (int k = 0; k < 16; ++k) {
                 sv[k] = 0;
-                const Light& l = lights[li];
-                const glm::vec3 L =
-                    opaqueHit[k] ? (l.point ? glm::normalize(l.vector - surf[k].position) : -glm::normalize(l.vector))
-                                 : glm::vec3(0, 0, 1);
-                if (opaqueHit[k] && glm::dot(surf[k].normal, L) > 0.f) {
-                    sv[k] = -1;
-                    any = true;
-                }
-                const glm::vec3 org = opaqueHit[k] ? origin[k] : glm::vec3(0.f);
-                sr.org_x[k] = org.x;
-                sr.org_y[k] = org.y;
-                sr.org_z[k] = org.z;
-                sr.dir_x[k] = L.x;
-                sr.dir_y[k] = L.y;
-                sr.dir_z[k] = L.z;
+                sr.org_x[k] = sr.org_y[k] = sr.org_z[k] = 0.f;
+                sr.dir_x[k] = sr.dir_y[k] = 0.f;
+                sr.dir_z[k] = 1.f;
                 sr.tnear[k] = 0.f;
-                sr.tfar[k] = l.point && opaqueHit[k] ? glm::length(l.vector - org) : kInf;
+                sr.tfar[k] = kInf;
                 sr.mask[k] = 0xFFFFFFFFu;
                 sr.flags[k] = 0;
                 sr.time[k] = 0.f;
+                if (!opaqueHit[k]) continue;
+                const glm::vec3 L = lights.towards(li, surf[k].position);
+                if (glm::dot(surf[k].normal, L) <= 0.f) continue;
+                sv[k] = -1;
+                any = true;
+                sr.org_x[k] = origin[k].x;
+                sr.org_y[k] = origin[k].y;
+                sr.org_z[k] = origin[k].z;
+                sr.dir_x[k] = L.x;
+                sr.dir_y[k] = L.y;
+                sr.dir_z[k] = L.z;
+                sr.tfar[k] = lights.reach(li, origin[k]);
             }
             if (!any) continue;
             RTCIntersectContext sctx;
@@ -298,8 +323,7 @@ Frame renderMeshes(const std::vector<MeshObject>& objects, const Look& look, con
                 [&](const glm::vec3& d) { return !occluded(origin[k], d, aoReach); });
             auto visible = [&](std::size_t li, const glm::vec3& L) {
                 if (li < packetLights) return ((visibleMask[li] >> k) & 1u) != 0;
-                return !o.shadows ||
-                       !occluded(origin[k], L, lights[li].point ? glm::length(lights[li].vector - origin[k]) : kInf);
+                return !o.shadows || !occluded(origin[k], L, lights.reach(li, origin[k]));
             };
             out[k].color = detail::shade(surf[k], rays[k].dir, lights, look.ambient, ao, visible);
         }
@@ -308,10 +332,21 @@ Frame renderMeshes(const std::vector<MeshObject>& objects, const Look& look, con
     Frame f = detail::renderBlocks(look, o, traceBlock, hitPixels);
     if (stats) {
         stats->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-        stats->setupSeconds = setup;
         stats->primaryRays = f.pixels() * static_cast<std::size_t>(std::max(o.spp, 1));
         stats->hitPixels = hitPixels;
         if (data.empty()) stats->warnings.push_back("nothing to render: no triangles");
+    }
+    return f;
+}
+
+Frame renderMeshes(const std::vector<MeshObject>& objects, const Look& look, const RenderOptions& options,
+                   RenderStats* stats) {
+    if (options.width <= 0 || options.height <= 0) throw std::invalid_argument("image size must be positive");
+    const PreparedMeshes prepared(objects);
+    Frame f = prepared.render(look, options, stats);
+    if (stats) {
+        stats->setupSeconds = prepared.setupSeconds();
+        stats->seconds += prepared.setupSeconds();
     }
     return f;
 }

@@ -633,7 +633,7 @@ Frame PreparedGrid::render(const Look& look, const RenderOptions& o, RenderStats
     const openvdb::FloatGrid& grid = impl_->grid;
     const std::vector<IsoLayer>& layers = impl_->layers;
     const bool insideBelow = impl_->insideBelow;
-    const std::vector<Light> lights = look.lights.empty() ? defaultLights(look.camera) : look.lights;
+    const detail::LightSet lights(look);
     const detail::Background background(look);
     std::uint64_t hitPixels = 0;
     if (impl_->empty) {

@@ -121,7 +121,7 @@ Frame marchField(const implicit::FieldPtr& field, const implicit::Box3& region, 
     const auto t0 = std::chrono::steady_clock::now();
     if (o.width <= 0 || o.height <= 0) throw std::invalid_argument("image size must be positive");
     const detail::RayGenerator rays(look.camera, o.width, o.height);
-    const std::vector<Light> lights = look.lights.empty() ? defaultLights(look.camera) : look.lights;
+    const detail::LightSet lights(look);
     const detail::Background background(look);
     const float sceneSize = region.isEmpty() || !region.isBounded() ? 1.f : glm::length(region.size());
     const float eps = 1e-5f * sceneSize;

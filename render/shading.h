@@ -41,9 +41,12 @@ public:
                                   ? c.orthoHeight
                                   : 2.f * glm::length(c.target - c.eye) * std::tan(glm::radians(c.fov) * 0.5f))
                     : std::tan(glm::radians(c.fov) * 0.5f);
+        halfX_ = half_ * aspect_;
+        sxScale_ = 2.f / float(width);
+        syScale_ = 2.f / float(height);
     }
     Ray operator()(float x, float y) const {
-        const float sx = (2.f * x / float(w_) - 1.f) * half_ * aspect_, sy = (1.f - 2.f * y / float(h_)) * half_;
+        const float sx = (x * sxScale_ - 1.f) * halfX_, sy = (1.f - y * syScale_) * half_;
         if (c_.orthographic) return {c_.eye + sx * r_ + sy * u_, f_};
         return {c_.eye, glm::normalize(f_ + sx * r_ + sy * u_)};
     }
@@ -80,7 +83,7 @@ private:
     Camera c_;
     int w_, h_;
     glm::vec3 f_, r_, u_;
-    float aspect_, half_;
+    float aspect_, half_, halfX_, sxScale_, syScale_;
 };
 
 /// Sub-pixel offsets: the R2 low-discrepancy sequence (Roberts), the first one at the centre.
@@ -112,24 +115,49 @@ struct Surface {
     }
 };
 
-/// Blinn-Phong with a hemispherical ambient term; `visible(l)` tells whether light l reaches the
-/// point (shadows), `ambientOcclusion` scales the ambient term.
+/// The frame's lights as shading uses them: the look's lights (or the default rig), with the unit
+/// vector towards each directional light and each light's radiance computed once per frame.
+class LightSet {
+public:
+    explicit LightSet(const Look& look) : lights_(look.lights.empty() ? defaultLights(look.camera) : look.lights) {
+        for (const Light& l : lights_) {
+            towards_.push_back(l.point ? glm::vec3(0.f) : -glm::normalize(l.vector));
+            radiance_.push_back(l.color * l.intensity);
+        }
+    }
+    std::size_t size() const { return lights_.size(); }
+    const Light& operator[](std::size_t i) const { return lights_[i]; }
+    /// Unit vector from p towards light i.
+    glm::vec3 towards(std::size_t i, const glm::vec3& p) const {
+        return lights_[i].point ? glm::normalize(lights_[i].vector - p) : towards_[i];
+    }
+    /// How far a shadow ray from p towards light i goes (infinity for directional lights).
+    float reach(std::size_t i, const glm::vec3& p) const {
+        return lights_[i].point ? glm::length(lights_[i].vector - p) : std::numeric_limits<float>::infinity();
+    }
+    const glm::vec3& radiance(std::size_t i) const { return radiance_[i]; }
+
+private:
+    std::vector<Light> lights_;
+    std::vector<glm::vec3> towards_, radiance_;
+};
+
+/// Blinn-Phong with a hemispherical ambient term; `visible(l, L)` tells whether light l (unit vector
+/// L towards it) reaches the point (shadows), `ambientOcclusion` scales the ambient term.
 template <class Visible>
-glm::vec3 shade(const Surface& s, const glm::vec3& viewDir, const std::vector<Light>& lights, float ambient,
+glm::vec3 shade(const Surface& s, const glm::vec3& viewDir, const LightSet& lights, float ambient,
                 float ambientOcclusion, Visible&& visible) {
     const glm::vec3 v = -viewDir;
     const float hemi = 0.6f + 0.4f * s.normal.z;  // sky above (+z up), ground below
     glm::vec3 c = s.albedo * (ambient * hemi * ambientOcclusion);
     for (std::size_t i = 0; i < lights.size(); ++i) {
-        const Light& l = lights[i];
-        const glm::vec3 L = l.point ? glm::normalize(l.vector - s.position) : -glm::normalize(l.vector);
+        const glm::vec3 L = lights.towards(i, s.position);
         const float nl = glm::dot(s.normal, L);
         if (nl <= 0.f) continue;
         if (!visible(i, L)) continue;
-        const glm::vec3 radiance = l.color * l.intensity;
         const glm::vec3 h = glm::normalize(L + v);
         const float spec = s.specular * std::pow(std::max(glm::dot(s.normal, h), 0.f), s.shininess);
-        c += radiance * (s.albedo * (s.diffuse * nl) + glm::vec3(spec));
+        c += lights.radiance(i) * (s.albedo * (s.diffuse * nl) + glm::vec3(spec));
     }
     return c;
 }
@@ -187,6 +215,7 @@ Frame renderBlocks(const Look& look, const RenderOptions& o, TraceBlock&& traceB
         std::uint64_t localHits = 0;
         Ray blockRays[16];
         std::size_t blockPix[16];
+        int blockPx[16], blockPy[16];
         float blockY[16];
         SampleResult results[16];
         glm::vec3 sum[16];
@@ -200,14 +229,16 @@ Frame renderBlocks(const Look& look, const RenderOptions& o, TraceBlock&& traceB
                         for (int x = bx; x < std::min(bx + 4, o.width); ++x) {
                             blockPix[n] = static_cast<std::size_t>(y) * static_cast<std::size_t>(o.width) +
                                           static_cast<std::size_t>(x);
+                            blockPx[n] = x;
+                            blockPy[n] = y;
                             sum[n] = glm::vec3(0.f);
                             coverage[n] = 0.f;
                             ++n;
                         }
                     for (std::size_t s = 0; s < pattern.size(); ++s) {
                         for (int k = 0; k < n; ++k) {
-                            const float x = float(blockPix[k] % static_cast<std::size_t>(o.width)) + pattern[s].x;
-                            blockY[k] = float(blockPix[k] / static_cast<std::size_t>(o.width)) + pattern[s].y;
+                            const float x = float(blockPx[k]) + pattern[s].x;
+                            blockY[k] = float(blockPy[k]) + pattern[s].y;
                             blockRays[k] = rays(x, blockY[k]);
                             results[k] = SampleResult{};
                         }
@@ -280,13 +311,11 @@ float ambientOcclusion(const glm::vec3& n, int samples, std::uint32_t seed, Open
 /// `origin` (just off the surface); `blocked(origin, direction, tmax)` answers whether something is hit.
 template <class Blocked>
 glm::vec3 shadeHit(const Surface& s, const glm::vec3& origin, const glm::vec3& viewDir, const Look& look,
-                   const std::vector<Light>& lights, const RenderOptions& o, float aoReach, std::uint32_t seed,
+                   const LightSet& lights, const RenderOptions& o, float aoReach, std::uint32_t seed,
                    Blocked&& blocked) {
     auto visible = [&](std::size_t li, const glm::vec3& L) {
         if (!o.shadows) return true;
-        return !blocked(
-            origin, L,
-            lights[li].point ? glm::length(lights[li].vector - origin) : std::numeric_limits<float>::infinity());
+        return !blocked(origin, L, lights.reach(li, origin));
     };
     const float ao =
         ambientOcclusion(s.normal, o.aoSamples, seed, [&](const glm::vec3& d) { return !blocked(origin, d, aoReach); });

@@ -395,7 +395,7 @@ Frame renderVoxels(const DenseVolume& v, const volume::LabelTable& labels, const
     const auto start = std::chrono::steady_clock::now();
     const glm::dmat4 w2i = glm::inverse(v.indexToWorld);
     const glm::dmat3 normalToWorld = glm::transpose(glm::dmat3(w2i));
-    const std::vector<Light> lights = look.lights.empty() ? defaultLights(look.camera) : look.lights;
+    const detail::LightSet lights(look);
     const detail::Background bg(look);
     // Linear colour per label value (looked up once).
     std::map<long, glm::vec3> colours;

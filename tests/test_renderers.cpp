@@ -16,6 +16,7 @@
 #include "csg/nodes.h"
 #include "csg/scene.h"
 #include "implicit/primitives.h"
+#include "mesh/io.h"
 #include "render/embree_renderer.h"
 #include "render/grid_march.h"
 #include "render/image.h"
@@ -413,6 +414,46 @@ TEST(Renderers, GridPrePassFindsWhatMarchingFromTheEyeFinds) {
         const render::Frame slow = render::PreparedGrid(*c.grid, c.layers, c.below, false).render(look, o);
         EXPECT_GE(iou(fast, slow), 0.999) << what;
         EXPECT_LT(meanColourDifference(fast, slow), 0.004) << what;
+    }
+}
+
+TEST(Renderers, PreparedMeshesRenderAnyViewAsOneCallWould) {
+    // A real mesh (the cow) opaque, and a translucent sphere around part of it: both of Embree's
+    // scenes (all objects, and the opaque ones that cast shadows) are built once.
+    const mesh::TriMesh cow = mesh::readMesh(test::sourceDir() / "data/cow.obj");
+    ASSERT_GT(cow.triangleCount(), 1000u);
+    implicit::Box3 box;
+    for (const auto& p : cow.positions) box = box.unite(implicit::Box3{p, p});
+    const auto sphereGrid = volume::readFloatGrid(test::sourceDir() / "data/sphere.vdb");
+    mesh::TriMesh shell = volume::extractIsosurface(*sphereGrid, volume::MeshingOptions{});
+    const float scale = 0.25f * glm::length(box.size()) / 3.f;
+    for (auto& p : shell.positions) p = box.centre() + scale * p;
+    implicit::Material glass;
+    glass.color = glm::vec4(0.3f, 0.5f, 0.9f, 0.4f);
+    implicit::Material hide;
+    hide.color = glm::vec4(0.8f, 0.6f, 0.5f, 1.f);
+    const std::vector<render::MeshObject> objects{{&cow, hide, false}, {&shell, glass, false}};
+    const render::PreparedMeshes prepared(objects);
+    EXPECT_GE(prepared.setupSeconds(), 0.0);
+    auto o = small(96, 72);
+    o.depth = o.normal = o.objectId = true;
+    for (const glm::vec3& dir : {glm::vec3(0.f, -1.f, 0.3f), glm::vec3(0.7f, 0.2f, -0.4f)}) {
+        render::Look look;
+        look.camera.target = box.centre();
+        look.camera.eye = box.centre() + 1.5f * glm::length(box.size()) * glm::normalize(dir);
+        look.camera.fov = 40.f;
+        const render::Frame a = prepared.render(look, o);
+        render::RenderStats st;
+        const render::Frame b = render::renderMeshes(objects, look, o, &st);
+        EXPECT_EQ(std::memcmp(a.color.data(), b.color.data(), a.color.size() * sizeof(glm::vec4)), 0);
+        EXPECT_EQ(std::memcmp(a.depth.data(), b.depth.data(), a.depth.size() * sizeof(float)), 0);
+        EXPECT_EQ(std::memcmp(a.normal.data(), b.normal.data(), a.normal.size() * sizeof(glm::vec3)), 0);
+        EXPECT_EQ(a.objectId, b.objectId);
+        EXPECT_GT(st.hitPixels, 0u);
+        EXPECT_LE(st.setupSeconds, st.seconds);
+        // Both objects seen.
+        EXPECT_NE(std::find(a.objectId.begin(), a.objectId.end(), 1.f), a.objectId.end());
+        EXPECT_NE(std::find(a.objectId.begin(), a.objectId.end(), 2.f), a.objectId.end());
     }
 }
 
