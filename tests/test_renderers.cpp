@@ -342,7 +342,7 @@ TEST(Renderers, GridPrePassFindsWhatMarchingFromTheEyeFinds) {
     // brute-force march (fifth-voxel steps, bisection) finds it, and level sets must look as when each
     // ray is marched from the eye through the tree. A level set (Newton steps) in perspective and
     // orthographic views, with one and four samples per pixel; a fog volume with active tiles and two
-    // iso-surfaces, the outer one translucent (half-voxel steps, bisection).
+    // iso-surfaces, the outer one translucent (half-voxel steps, bisection), then both opaque.
     const auto sphere = volume::readFloatGrid(test::sourceDir() / "data/sphere.vdb");
     auto fog = openvdb::FloatGrid::create(0.f);
     fog->setGridClass(openvdb::GRID_FOG_VOLUME);
@@ -362,6 +362,8 @@ TEST(Renderers, GridPrePassFindsWhatMarchingFromTheEyeFinds) {
     outer.material.color = glm::vec4(0.3f, 0.5f, 1.f, 0.4f);
     inner.iso = 0.7f;
     inner.material.color = glm::vec4(1.f, 0.8f, 0.6f, 1.f);
+    render::IsoLayer outerOpaque = outer;
+    outerOpaque.material.color.a = 1.f;
     struct Case {
         const openvdb::FloatGrid* grid;
         std::vector<render::IsoLayer> layers;
@@ -374,7 +376,9 @@ TEST(Renderers, GridPrePassFindsWhatMarchingFromTheEyeFinds) {
     const Case cases[] = {{sphere.get(), {render::IsoLayer{}}, true, false, 1, unit},
                           {sphere.get(), {render::IsoLayer{}}, true, true, 4, unit},
                           {fog.get(), {outer, inner}, false, false, 1, fogBox},
-                          {fog.get(), {outer, inner}, false, true, 4, fogBox}};
+                          {fog.get(), {outer, inner}, false, true, 4, fogBox},
+                          {fog.get(), {outerOpaque, inner}, false, false, 1, fogBox},
+                          {fog.get(), {outerOpaque, inner}, false, true, 4, fogBox}};
     for (const Case& c : cases) {
         const int w = 160, h = 120;
         auto o = small(w, h);
