@@ -4,7 +4,10 @@
 //   prepares too), direct field marcher (the analytic sphere),
 //   OpenVDB's LevelSetRayIntersector driven over the same image and camera (hits and normals only),
 //   and vdb_render as a whole process (read, render, write; -shader diffuse).
+// The grid marcher / intersector ratio is also measured in 7 alternating pairs of frames per thread
+// count (both then see the same state of a machine whose speed drifts).
 // Usage: bench_render [--quick] [--only N] [--threads T]   (for profiling: row N = 0..6 alone, T threads alone)
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -59,6 +62,7 @@ int main(int argc, char** argv) {
     std::printf("%-48s %10s %10s\n", "", "1 thread", "2 threads");
 
     double mr[7][2] = {};
+    double pairedRatio[2][3] = {};  // median, lowest, highest of 7 pairs
     for (int threads : {1, 2}) {
         if (onlyThreads > 0 && threads != onlyThreads) continue;
         tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
@@ -113,7 +117,7 @@ int main(int argc, char** argv) {
             return st.seconds;
         });
         // OpenVDB's LevelSetRayIntersector over the same camera rays (world-space hits and normals).
-        mr[5][ti] = rate([&] {
+        auto intersectorFrame = [&] {
             const double t0 = bench::now();
             const render::detail::RayGenerator gen(look.camera, size, size);
             using Inter = openvdb::tools::LevelSetRayIntersector<openvdb::FloatGrid>;
@@ -132,7 +136,23 @@ int main(int argc, char** argv) {
                 }
             });
             return bench::now() - t0;
-        });
+        };
+        mr[5][ti] = rate(intersectorFrame);
+        // The ratio the target is about, measured in pairs (a grid-marcher frame, then an
+        // intersector frame) so that both see the same state of a machine whose speed drifts.
+        if (only < 0) {
+            const render::PreparedGrid prepared(*grid, {render::IsoLayer{}}, true);
+            std::vector<double> ratios;
+            for (int k = 0; k < 7; ++k) {
+                render::RenderStats st;
+                prepared.render(look, noShadow, &st);
+                ratios.push_back(intersectorFrame() / st.seconds);
+            }
+            std::sort(ratios.begin(), ratios.end());
+            pairedRatio[ti][0] = ratios[3];
+            pairedRatio[ti][1] = ratios.front();
+            pairedRatio[ti][2] = ratios.back();
+        }
         // vdb_render, the whole process.
         const auto tmp = std::filesystem::temp_directory_path() / "isoforge_bench_render";
         std::filesystem::create_directories(tmp);
@@ -168,6 +188,12 @@ int main(int argc, char** argv) {
             " grid marcher / vdb_render = %.2fx; Embree+shadows / LevelSetRayIntersector = %.2fx\n",
             ti + 1, ti ? "s" : "", mr[2][ti] / mr[5][ti], mr[3][ti] / mr[5][ti], mr[3][ti] / mr[6][ti],
             mr[0][ti] / mr[5][ti]);
+    if (only < 0)
+        for (int ti : {0, 1})
+            std::printf(
+                "paired at %d thread%s (7 pairs of frames, grid marcher then intersector): %.2fx median, "
+                "%.2fx-%.2fx\n",
+                ti + 1, ti ? "s" : "", pairedRatio[ti][0], pairedRatio[ti][1], pairedRatio[ti][2]);
     std::printf("1 -> 2 threads: Embree %.2fx, grid marcher %.2fx (per frame), field marcher %.2fx\n",
                 mr[0][1] / mr[0][0], mr[2][1] / mr[2][0], mr[4][1] / mr[4][0]);
     return 0;
