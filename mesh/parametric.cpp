@@ -153,9 +153,18 @@ glm::dvec4 homogeneous(const glm::dvec3& p, double w) {
     return glm::dvec4(p * w, w);
 }
 
+/// Control points must be finite (a NaN from `0 % 0` in a scene would reach the tessellation).
+void validatePoints(const std::vector<glm::dvec3>& points) {
+    for (std::size_t i = 0; i < points.size(); ++i)
+        if (!std::isfinite(points[i].x) || !std::isfinite(points[i].y) || !std::isfinite(points[i].z))
+            throw std::invalid_argument("control point " + std::to_string(i + 1) + " of " +
+                                        std::to_string(points.size()) + " is not finite");
+}
+
 }  // namespace
 
 void NurbsCurve::validate() const {
+    validatePoints(points);
     validateKnots(knots, points.size(), degree, "");
     validateWeights(weights, points.size());
 }
@@ -177,6 +186,7 @@ void NurbsSurface::validate() const {
         throw std::invalid_argument(
             "a NURBS surface needs countU x countV = " + std::to_string(std::max(countU, 0) * std::max(countV, 0)) +
             " control points, got " + std::to_string(points.size()));
+    validatePoints(points);
     validateKnots(knotsU, std::size_t(countU), degreeU, "u ");
     validateKnots(knotsV, std::size_t(countV), degreeV, "v ");
     validateWeights(weights, points.size());
@@ -287,12 +297,17 @@ public:
     TriMesh finish() const {
         TriMesh m;
         if (points_.empty()) return m;
+        for (const glm::dvec3& p : points_)  // finite control points can still overflow
+            if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+                throw std::invalid_argument("the surface has points that are not finite (control points too large?)");
         glm::dvec3 lo = points_[0], hi = points_[0];
         for (const glm::dvec3& p : points_) {
             lo = glm::min(lo, p);
             hi = glm::max(hi, p);
         }
-        const double eps = std::max(glm::length(hi - lo), 1e-30) * 1e-9;
+        const double extent = glm::length(hi - lo);
+        if (!std::isfinite(extent)) throw std::invalid_argument("the surface spans more than the largest double");
+        const double eps = std::max(extent, 1e-30) * 1e-9;  // cells below stay within 2e9 of lo
         // Weld: cells of size eps; a point joins an earlier point within eps in its or a neighbouring cell.
         using Cell = std::array<long long, 3>;
         auto cellOf = [&](const glm::dvec3& p) {

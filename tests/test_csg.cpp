@@ -154,6 +154,9 @@ TEST(Scene, ErrorsNameFileLineColumnWithACaretAndSeveralAtOnce) {
     EXPECT_LT(e.size(), 400u) << "long lines are cut around the column";
     EXPECT_NE(errorOf("sphere(1, $fn = 1e30);").find("more than 10,000 sides"), std::string::npos);
     EXPECT_NE(errorOf("vm(\"/dev/zero\");").find("not a regular file"), std::string::npos);
+    // Found by fuzzing: a NaN control point (`0 % 0`) reached the tessellation's welding (UB).
+    e = errorOf("x = 1;\nnurbs(degree = [1, 1], points = [[[0, 0, 0], [1, 0, 0]], [[0, 1, 0 % 0], [1, 1, 0]]]);\n");
+    EXPECT_NE(e.find("s.isf:2:24: nurbs(): control point 3 of 4 is not finite"), std::string::npos) << e;
 }
 
 TEST(Scene, RealOpenScadExportsMatchOpenScadsOwnMeshes) {

@@ -3,6 +3,7 @@
 // resolutions, Newell's teapot (patch corners, orientation), and the .bpt reader's errors.
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <string>
 
 #include <glm/geometric.hpp>
@@ -134,6 +135,15 @@ TEST(Nurbs, ValidationSaysWhatIsWrong) {
     bad = c;
     bad.degree = 9;
     EXPECT_NE(message(bad).find("at least 10 control points"), std::string::npos) << message(bad);
+    bad = c;
+    bad.points[4].y = std::nan("");  // found by fuzzing the scene parser: `0 % 0` in a point
+    EXPECT_NE(message(bad).find("control point 5 of 9 is not finite"), std::string::npos) << message(bad);
+    mesh::NurbsSurface sphere = mesh::nurbsSphere(1);
+    sphere.points[3].z = std::numeric_limits<double>::infinity();
+    EXPECT_THROW(sphere.validate(), std::invalid_argument);
+    // Finite control points whose surface overflows: refused, not welded through a NaN cell index.
+    mesh::NurbsSurface huge = mesh::nurbsSphere(1e308);
+    EXPECT_THROW(mesh::tessellate(huge, 4), std::invalid_argument);
 }
 
 TEST(Teapot, TessellationHitsThePatchCornersAndIsConsistentlyOriented) {
