@@ -768,7 +768,7 @@ Frame PreparedGrid::render(const Look& look, const RenderOptions& o, RenderStats
     };
     Frame f = detail::renderBlocks(
         look, o,
-        [&](const detail::Ray* rays, int n, const std::size_t* pix, std::size_t s, const float* py,
+        [&](const detail::RayBlock& rays, int n, const std::size_t* pix, std::size_t s, const float* py,
             detail::SampleResult* out) {
             ThreadState& st = states.local();
             for (int k = 0; k < n; ++k) trace(st, rays[k], pix[k], s, py[k], out[k]);

@@ -4,7 +4,10 @@
 /// them from a scene file, a grid or a mesh; `render` never parses.
 
 #include <cstdint>
+#include <memory>
 #include <string>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include <glm/vec3.hpp>
@@ -65,12 +68,34 @@ struct RenderStats {
     std::vector<std::string> warnings;
 };
 
+/// An allocator that leaves elements default-initialized rather than value-initialized: resizing a
+/// frame's colour buffer (16 MB at 1024x1024) costs no serial zero fill, since the renderers write
+/// every pixel from their parallel tiles.
+template <class T>
+struct UninitializedAllocator : std::allocator<T> {
+    template <class U>
+    struct rebind {
+        using other = UninitializedAllocator<U>;
+    };
+    UninitializedAllocator() = default;
+    template <class U>
+    UninitializedAllocator(const UninitializedAllocator<U>&) noexcept {}
+    template <class U, class... Args>
+    void construct(U* p, Args&&... args) {
+        ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+    }
+    template <class U>
+    void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
+        ::new (static_cast<void*>(p)) U;
+    }
+};
+
 /// Linear-light colour per pixel (row 0 at the top), alpha = coverage, and the AOVs asked for:
 /// depth (distance along the ray to the first surface, +inf on background), world normal of the
 /// first surface, object id (+1; 0 on background).
 struct Frame {
     int width = 0, height = 0;
-    std::vector<glm::vec4> color;
+    std::vector<glm::vec4, UninitializedAllocator<glm::vec4>> color;
     std::vector<float> depth;
     std::vector<glm::vec3> normal;
     std::vector<float> objectId;

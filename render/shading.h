@@ -25,6 +25,14 @@ struct Ray {
     glm::vec3 origin, dir;  ///< dir is unit length
 };
 
+/// Up to 16 rays as structure of arrays (what Embree's packets take, and what loops over lanes
+/// vectorize).
+struct RayBlock {
+    alignas(64) float ox[16], oy[16], oz[16];
+    alignas(64) float dx[16], dy[16], dz[16];
+    Ray operator[](int k) const { return {{ox[k], oy[k], oz[k]}, {dx[k], dy[k], dz[k]}}; }
+};
+
 /// Rays through pixel positions (x, y in pixels, y down, (0, 0) the top-left corner).
 class RayGenerator {
 public:
@@ -47,8 +55,41 @@ public:
     }
     Ray operator()(float x, float y) const {
         const float sx = (x * sxScale_ - 1.f) * halfX_, sy = (1.f - y * syScale_) * half_;
-        if (c_.orthographic) return {c_.eye + sx * r_ + sy * u_, f_};
-        return {c_.eye, glm::normalize(f_ + sx * r_ + sy * u_)};
+        const glm::vec3 a = sx * r_, b = sy * u_;
+        if (c_.orthographic) return {c_.eye + a + b, f_};
+        const glm::vec3 d = f_ + a + b;
+        return {c_.eye, d * (1.f / std::sqrt(glm::dot(d, d)))};
+    }
+    /// The rays through 16 pixel positions, as operator() gives them one by one (the same
+    /// operations in the same order, in loops over the lanes that the compiler vectorizes).
+    void block(const float* x, const float* y, RayBlock& out) const {
+        alignas(64) float sx[16], sy[16];
+        for (int k = 0; k < 16; ++k) {
+            sx[k] = (x[k] * sxScale_ - 1.f) * halfX_;
+            sy[k] = (1.f - y[k] * syScale_) * half_;
+        }
+        if (c_.orthographic) {
+            for (int k = 0; k < 16; ++k) {
+                out.ox[k] = c_.eye.x + sx[k] * r_.x + sy[k] * u_.x;
+                out.oy[k] = c_.eye.y + sx[k] * r_.y + sy[k] * u_.y;
+                out.oz[k] = c_.eye.z + sx[k] * r_.z + sy[k] * u_.z;
+                out.dx[k] = f_.x;
+                out.dy[k] = f_.y;
+                out.dz[k] = f_.z;
+            }
+            return;
+        }
+        for (int k = 0; k < 16; ++k) {
+            const float dx = f_.x + sx[k] * r_.x + sy[k] * u_.x, dy = f_.y + sx[k] * r_.y + sy[k] * u_.y,
+                        dz = f_.z + sx[k] * r_.z + sy[k] * u_.z;
+            const float inv = 1.f / std::sqrt(dx * dx + dy * dy + dz * dz);
+            out.ox[k] = c_.eye.x;
+            out.oy[k] = c_.eye.y;
+            out.oz[k] = c_.eye.z;
+            out.dx[k] = dx * inv;
+            out.dy[k] = dy * inv;
+            out.dz[k] = dz * inv;
+        }
     }
     /// World size of a pixel at distance t along a ray (for epsilons and step limits).
     float pixelSize(float t) const {
@@ -142,6 +183,22 @@ private:
     std::vector<glm::vec3> towards_, radiance_;
 };
 
+/// Whole exponents up to this are raised by repeated squaring (a few multiplications instead of
+/// powf); others go through std::pow.
+constexpr float kMaxIntegerShininess = 1024.f;
+
+/// x^e for the specular lobe (x in [0, 1]): by squaring when e is a whole number up to
+/// kMaxIntegerShininess (materials' usual 10, 40, 100), else std::pow. The two agree to a few ulps.
+inline float specularPower(float x, float e) {
+    if (!(e >= 0.f && e <= kMaxIntegerShininess && e == std::floor(e))) return std::pow(x, e);
+    float r = 1.f;
+    for (unsigned n = static_cast<unsigned>(e); n; n >>= 1) {
+        if (n & 1u) r *= x;
+        x *= x;
+    }
+    return r;
+}
+
 /// Blinn-Phong with a hemispherical ambient term; `visible(l, L)` tells whether light l (unit vector
 /// L towards it) reaches the point (shadows), `ambientOcclusion` scales the ambient term.
 template <class Visible>
@@ -156,7 +213,7 @@ glm::vec3 shade(const Surface& s, const glm::vec3& viewDir, const LightSet& ligh
         if (nl <= 0.f) continue;
         if (!visible(i, L)) continue;
         const glm::vec3 h = glm::normalize(L + v);
-        const float spec = s.specular * std::pow(std::max(glm::dot(s.normal, h), 0.f), s.shininess);
+        const float spec = s.specular * specularPower(std::max(glm::dot(s.normal, h), 0.f), s.shininess);
         c += lights.radiance(i) * (s.albedo * (s.diffuse * nl) + glm::vec3(spec));
     }
     return c;
@@ -193,30 +250,32 @@ struct SampleResult {
 
 /// The tile loop all renderers share: TBB over 16x16 tiles, each cut into 4x4 blocks; per block and
 /// sample index, `traceBlock(rays, count, pixelIndices, sampleIndex, yPixels, results)` traces up to
-/// 16 camera samples at once (Embree packets), filling `results`. AOVs come from the first sample,
-/// progress is reported per tile. Every pixel is computed alone, so the frame does not depend on the
-/// thread count.
+/// 16 camera samples at once (a RayBlock: Embree packets), filling `results`. AOVs come from the
+/// first sample, progress is reported per tile. Every pixel is computed alone, so the frame does not
+/// depend on the thread count. Every pixel of the colour buffer is written by its tile (no serial
+/// clearing of the frame first).
 template <class TraceBlock>
 Frame renderBlocks(const Look& look, const RenderOptions& o, TraceBlock&& traceBlock, std::uint64_t& hitPixels) {
     Frame f;
     f.width = o.width;
     f.height = o.height;
-    f.color.assign(f.pixels(), glm::vec4(0.f));
+    f.color.resize(f.pixels());  // uninitialized: each tile writes its pixels
     if (o.depth) f.depth.assign(f.pixels(), std::numeric_limits<float>::infinity());
     if (o.normal) f.normal.assign(f.pixels(), glm::vec3(0.f));
     if (o.objectId) f.objectId.assign(f.pixels(), 0.f);
     const RayGenerator rays(look.camera, o.width, o.height);
     const auto pattern = samplePattern(o.spp);
     const int tilesX = (o.width + kTile - 1) / kTile, tilesY = (o.height + kTile - 1) / kTile;
+    const bool anyAov = o.depth || o.normal || o.objectId;
     std::atomic<std::uint64_t> hits{0};
     std::atomic<std::size_t> tilesDone{0};
     if (o.progress) o.progress->begin("rendering");
     tbb::parallel_for(tbb::blocked_range<int>(0, tilesX * tilesY, 1), [&](const tbb::blocked_range<int>& range) {
         std::uint64_t localHits = 0;
-        Ray blockRays[16];
+        RayBlock blockRays;
+        alignas(64) float blockX[16], blockY[16];
         std::size_t blockPix[16];
-        int blockPx[16], blockPy[16];
-        float blockY[16];
+        alignas(64) int blockPx[16], blockPy[16];
         SampleResult results[16];
         glm::vec3 sum[16];
         float coverage[16];
@@ -231,32 +290,44 @@ Frame renderBlocks(const Look& look, const RenderOptions& o, TraceBlock&& traceB
                                           static_cast<std::size_t>(x);
                             blockPx[n] = x;
                             blockPy[n] = y;
-                            sum[n] = glm::vec3(0.f);
-                            coverage[n] = 0.f;
                             ++n;
                         }
+                    for (int k = n; k < 16; ++k) blockPx[k] = blockPx[0], blockPy[k] = blockPy[0];  // unused lanes
                     for (std::size_t s = 0; s < pattern.size(); ++s) {
-                        for (int k = 0; k < n; ++k) {
-                            const float x = float(blockPx[k]) + pattern[s].x;
-                            blockY[k] = float(blockPy[k]) + pattern[s].y;
-                            blockRays[k] = rays(x, blockY[k]);
-                            results[k] = SampleResult{};
+                        const float jx = pattern[s].x, jy = pattern[s].y;
+                        for (int k = 0; k < 16; ++k) {
+                            blockX[k] = float(blockPx[k]) + jx;
+                            blockY[k] = float(blockPy[k]) + jy;
                         }
+                        for (int k = 0; k < n; ++k) results[k] = SampleResult{};
+                        rays.block(blockX, blockY, blockRays);
                         traceBlock(blockRays, n, blockPix, s, blockY, results);
-                        for (int k = 0; k < n; ++k) {
-                            sum[k] += results[k].color;
-                            coverage[k] += results[k].hit ? 1.f : 0.f;
-                            if (s == 0 && results[k].hit) {
-                                if (o.depth) f.depth[blockPix[k]] = results[k].depth;
-                                if (o.normal) f.normal[blockPix[k]] = results[k].normal;
-                                if (o.objectId) f.objectId[blockPix[k]] = results[k].id;
+                        if (pattern.size() == 1) {  // the colour is the sample's
+                            for (int k = 0; k < n; ++k) {
+                                f.color[blockPix[k]] = glm::vec4(results[k].color, results[k].hit ? 1.f : 0.f);
+                                localHits += results[k].hit;
+                            }
+                        } else {
+                            for (int k = 0; k < n; ++k) {
+                                if (s == 0) sum[k] = glm::vec3(0.f), coverage[k] = 0.f;
+                                sum[k] += results[k].color;
+                                coverage[k] += results[k].hit ? 1.f : 0.f;
                             }
                         }
+                        if (s == 0 && anyAov)
+                            for (int k = 0; k < n; ++k)
+                                if (results[k].hit) {
+                                    if (o.depth) f.depth[blockPix[k]] = results[k].depth;
+                                    if (o.normal) f.normal[blockPix[k]] = results[k].normal;
+                                    if (o.objectId) f.objectId[blockPix[k]] = results[k].id;
+                                }
                     }
-                    const float inv = 1.f / float(pattern.size());
-                    for (int k = 0; k < n; ++k) {
-                        f.color[blockPix[k]] = glm::vec4(sum[k] * inv, coverage[k] * inv);
-                        localHits += coverage[k] > 0;
+                    if (pattern.size() > 1) {
+                        const float inv = 1.f / float(pattern.size());
+                        for (int k = 0; k < n; ++k) {
+                            f.color[blockPix[k]] = glm::vec4(sum[k] * inv, coverage[k] * inv);
+                            localHits += coverage[k] > 0;
+                        }
                     }
                 }
             if (o.progress) o.progress->update(++tilesDone, static_cast<std::size_t>(tilesX * tilesY));
@@ -273,7 +344,7 @@ template <class Trace>
 Frame renderTiles(const Look& look, const RenderOptions& o, Trace&& trace, std::uint64_t& hitPixels) {
     return renderBlocks(
         look, o,
-        [&](const Ray* rays, int n, const std::size_t* pix, std::size_t s, const float* py, SampleResult* out) {
+        [&](const RayBlock& rays, int n, const std::size_t* pix, std::size_t s, const float* py, SampleResult* out) {
             for (int k = 0; k < n; ++k) out[k] = trace(rays[k], pix[k], s, py[k]);
         },
         hitPixels);
