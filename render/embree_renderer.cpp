@@ -243,9 +243,9 @@ Frame PreparedMeshes::render(const Look& look, const RenderOptions& o, RenderSta
 
         // Per lane: the corner normals and the material of its opaque hit (other lanes get harmless
         // values, so that the loops below may run over all 16).
-        alignas(64) float n0x[16], n0y[16], n0z[16], n1x[16], n1y[16], n1z[16], n2x[16], n2y[16], n2z[16];
-        alignas(64) float ar[16], ag[16], ab[16], kd[16], ks[16], shin[16], off[16];
-        alignas(64) int opaque[16];  // -1 for lanes with an opaque first hit, else 0
+        alignas(64) float n0x[16], n0y[16], n0z[16], n1x[16], n1y[16], n1z[16], n2x[16], n2y[16], n2z[16], off[16];
+        detail::HitLanes h;
+        h.clear();
         int opaqueCount = 0;
         // The hit triangles' indices first, all lanes at once (independent loads: their cache
         // misses overlap instead of each waiting for the one before).
@@ -254,9 +254,8 @@ Frame PreparedMeshes::render(const Look& look, const RenderOptions& o, RenderSta
             const unsigned g = rh.hit.geomID[k];
             if (g != RTC_INVALID_GEOMETRY_ID) tris[k] = data[g].mesh->triangles[rh.hit.primID[k]];
         }
-        for (float* a : {n0x, n0y, n1x, n1y, n2x, n2y, ar, ag, ab, kd, ks, off}) std::fill_n(a, 16, 0.f);
-        for (float* a : {n0z, n1z, n2z, shin}) std::fill_n(a, 16, 1.f);
-        std::fill_n(opaque, 16, 0);
+        for (float* a : {n0x, n0y, n1x, n1y, n2x, n2y, off}) std::fill_n(a, 16, 0.f);
+        for (float* a : {n0z, n1z, n2z}) std::fill_n(a, 16, 1.f);
         alignas(64) float tHit[16];
         std::memcpy(tHit, rh.ray.tfar, sizeof tHit);
         std::fill_n(rh.ray.tfar, 16, 0.f);  // until a lane is known to have an opaque hit
@@ -282,17 +281,16 @@ Frame PreparedMeshes::render(const Look& look, const RenderOptions& o, RenderSta
                 albedo = srgbToLinear((1.f - u - v) * od.mesh->colors[tri.x] + u * od.mesh->colors[tri.y] +
                                       v * od.mesh->colors[tri.z]);
             }
-            ar[k] = albedo.x, ag[k] = albedo.y, ab[k] = albedo.z;
-            kd[k] = od.material.diffuse, ks[k] = od.material.specular, shin[k] = od.material.shininess;
+            h.setMaterial(k, albedo, od.material);
             off[k] = od.offset;
             rh.ray.tfar[k] = tHit[k];
-            opaque[k] = -1;
+            h.on[k] = -1;
             ++opaqueCount;
         }
         if (opaqueCount == 0) return;
 
         // Smooth normals (facing the viewer), hit positions and the origins of secondary rays.
-        alignas(64) float nx[16], ny[16], nz[16], len[16], px[16], pyy[16], pz[16], qx[16], qy[16], qz[16];
+        alignas(64) float len[16];
         for (int k = 0; k < 16; ++k) {
             const float u = rh.hit.u[k], v = rh.hit.v[k], w = 1.f - u - v;
             float x = w * n0x[k] + u * n1x[k] + v * n2x[k];
@@ -303,135 +301,73 @@ Frame PreparedMeshes::render(const Look& look, const RenderOptions& o, RenderSta
             const float d = l > 0.f ? l : 1.f;
             x /= d, y /= d, z /= d;
             const float flip = x * rays.dx[k] + y * rays.dy[k] + z * rays.dz[k] > 0.f ? -1.f : 1.f;
-            nx[k] = x * flip, ny[k] = y * flip, nz[k] = z * flip;
+            h.nx[k] = x * flip, h.ny[k] = y * flip, h.nz[k] = z * flip;
         }
         for (int k = 0; k < 16; ++k)
-            if (opaque[k] && !(len[k] > 0.f)) {  // corner normals cancel: the geometric normal
+            if (h.on[k] && !(len[k] > 0.f)) {  // corner normals cancel: the geometric normal
                 glm::vec3 g = glm::normalize(glm::vec3(rh.hit.Ng_x[k], rh.hit.Ng_y[k], rh.hit.Ng_z[k]));
                 if (glm::dot(g, rays[k].dir) > 0) g = -g;
-                nx[k] = g.x, ny[k] = g.y, nz[k] = g.z;
+                h.nx[k] = g.x, h.ny[k] = g.y, h.nz[k] = g.z;
             }
         for (int k = 0; k < 16; ++k) {
             const float t = rh.ray.tfar[k];
-            px[k] = rays.ox[k] + t * rays.dx[k];
-            pyy[k] = rays.oy[k] + t * rays.dy[k];
-            pz[k] = rays.oz[k] + t * rays.dz[k];
+            h.px[k] = rays.ox[k] + t * rays.dx[k];
+            h.py[k] = rays.oy[k] + t * rays.dy[k];
+            h.pz[k] = rays.oz[k] + t * rays.dz[k];
             const float lift = eps + off[k] + 1e-5f * t;
-            qx[k] = px[k] + nx[k] * lift;
-            qy[k] = pyy[k] + ny[k] * lift;
-            qz[k] = pz[k] + nz[k] * lift;
+            h.qx[k] = h.px[k] + h.nx[k] * lift;
+            h.qy[k] = h.py[k] + h.ny[k] * lift;
+            h.qz[k] = h.pz[k] + h.nz[k] * lift;
         }
-
-        // Ambient term (with ambient occlusion when asked: rays one by one).
-        alignas(64) float cr[16], cg[16], cb[16], ao[16];
-        for (int k = 0; k < 16; ++k) ao[k] = 1.f;
-        if (o.aoSamples > 0)
+        if (o.aoSamples > 0)  // rays one by one
             for (int k = 0; k < 16; ++k)
-                if (opaque[k]) {
-                    const glm::vec3 q(qx[k], qy[k], qz[k]);
-                    ao[k] = detail::ambientOcclusion(glm::vec3(nx[k], ny[k], nz[k]), o.aoSamples,
-                                                     static_cast<std::uint32_t>(pix[k] * 64u + s * 16u),
-                                                     [&](const glm::vec3& d) { return !occluded(q, d, aoReach); });
+                if (h.on[k]) {
+                    const glm::vec3 q(h.qx[k], h.qy[k], h.qz[k]);
+                    h.ao[k] = detail::ambientOcclusion(glm::vec3(h.nx[k], h.ny[k], h.nz[k]), o.aoSamples,
+                                                       static_cast<std::uint32_t>(pix[k] * 64u + s * 16u),
+                                                       [&](const glm::vec3& d) { return !occluded(q, d, aoReach); });
                 }
-        for (int k = 0; k < 16; ++k) {
-            const float a = look.ambient * (0.6f + 0.4f * nz[k]) * ao[k];
-            cr[k] = ar[k] * a, cg[k] = ag[k] * a, cb[k] = ab[k] * a;
-        }
-        // One whole specular exponent for every lane (one object, or several alike): raised by
-        // squaring across the lanes; otherwise lane by lane.
-        float exponent = 0.f;
-        bool first = true, oneExponent = true;
-        for (int k = 0; k < 16; ++k)
-            if (opaque[k]) {
-                if (first) exponent = shin[k], first = false;
-                oneExponent = oneExponent && shin[k] == exponent;
-            }
-        const bool wholeExponent = oneExponent && exponent >= 0.f && exponent <= detail::kMaxIntegerShininess &&
-                                   exponent == std::floor(exponent);
-
-        // Each light: unit vectors towards it, a shadow packet, Blinn-Phong.
-        for (std::size_t li = 0; li < lights.size(); ++li) {
-            alignas(64) float lx[16], ly[16], lz[16], reach[16], nl[16];
-            const Light& light = lights[li];
-            if (light.point) {
-                for (int k = 0; k < 16; ++k) {
-                    const float dx = light.vector.x - px[k], dy = light.vector.y - pyy[k], dz = light.vector.z - pz[k];
-                    const float l = std::sqrt(dx * dx + dy * dy + dz * dz);
-                    const float d = l > 0.f ? l : 1.f;
-                    lx[k] = dx / d, ly[k] = dy / d, lz[k] = dz / d;
-                    const float rx = light.vector.x - qx[k], ry = light.vector.y - qy[k], rz = light.vector.z - qz[k];
-                    reach[k] = std::sqrt(rx * rx + ry * ry + rz * rz);
-                }
-            } else {
-                const glm::vec3 L = lights.towards(li, glm::vec3(0.f));
-                for (int k = 0; k < 16; ++k) lx[k] = L.x, ly[k] = L.y, lz[k] = L.z, reach[k] = kInf;
-            }
-            for (int k = 0; k < 16; ++k) nl[k] = nx[k] * lx[k] + ny[k] * ly[k] + nz[k] * lz[k];
-            alignas(64) int lit[16];
-            int litCount = 0;
-            for (int k = 0; k < 16; ++k) {
-                lit[k] = opaque[k] & (nl[k] > 0.f ? -1 : 0);
-                litCount -= lit[k];
-            }
-            if (litCount == 0) continue;
-            if (o.shadows && li < packetLights) {
-                alignas(64) RTCRay16 sr;
-                std::memcpy(sr.org_x, qx, sizeof qx);
-                std::memcpy(sr.org_y, qy, sizeof qy);
-                std::memcpy(sr.org_z, qz, sizeof qz);
-                std::memcpy(sr.dir_x, lx, sizeof lx);
-                std::memcpy(sr.dir_y, ly, sizeof ly);
-                std::memcpy(sr.dir_z, lz, sizeof lz);
-                std::memcpy(sr.tfar, reach, sizeof reach);
-                std::fill_n(sr.tnear, 16, 0.f);
-                std::fill_n(sr.mask, 16, 0xFFFFFFFFu);
-                std::fill_n(sr.flags, 16, 0u);
-                std::fill_n(sr.time, 16, 0.f);
-                RTCIntersectContext sctx;
-                rtcInitIntersectContext(&sctx);
-                sctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;  // a 4x4 block's rays towards one light
-                alignas(64) int sv[16];
-                std::memcpy(sv, lit, sizeof lit);
-                rtcOccluded16(sv, shadowScene, &sctx, &sr);
+        // Shadows: a packet towards each of the first 8 lights, single rays beyond.
+        auto shadow = [&](std::size_t li, const float* lx, const float* ly, const float* lz, const float* reach,
+                          int* lit) {
+            if (!o.shadows) return;
+            if (li >= packetLights) {
                 for (int k = 0; k < 16; ++k)
-                    if (sr.tfar[k] < 0.f) lit[k] = 0;
-            } else if (o.shadows) {
-                for (int k = 0; k < 16; ++k)
-                    if (lit[k] && occluded(glm::vec3(qx[k], qy[k], qz[k]), glm::vec3(lx[k], ly[k], lz[k]), reach[k]))
+                    if (lit[k] &&
+                        occluded(glm::vec3(h.qx[k], h.qy[k], h.qz[k]), glm::vec3(lx[k], ly[k], lz[k]), reach[k]))
                         lit[k] = 0;
+                return;
             }
-            alignas(64) float nh[16], spec[16];
-            for (int k = 0; k < 16; ++k) {
-                const float hx = lx[k] - rays.dx[k], hy = ly[k] - rays.dy[k], hz = lz[k] - rays.dz[k];
-                const float l = std::sqrt(hx * hx + hy * hy + hz * hz);
-                const float d = l > 0.f ? l : 1.f;
-                nh[k] = std::max((nx[k] * hx + ny[k] * hy + nz[k] * hz) / d, 0.f);
-            }
-            if (wholeExponent) {
-                for (int k = 0; k < 16; ++k) spec[k] = 1.f;
-                for (unsigned e = static_cast<unsigned>(exponent); e; e >>= 1) {
-                    if (e & 1u)
-                        for (int k = 0; k < 16; ++k) spec[k] *= nh[k];
-                    for (int k = 0; k < 16; ++k) nh[k] *= nh[k];
-                }
-            } else {
-                for (int k = 0; k < 16; ++k) spec[k] = opaque[k] ? detail::specularPower(nh[k], shin[k]) : 0.f;
-            }
-            const glm::vec3 rad = lights.radiance(li);
-            for (int k = 0; k < 16; ++k) {
-                const float dnl = kd[k] * nl[k], sp = ks[k] * spec[k];
-                cr[k] += lit[k] ? rad.x * (ar[k] * dnl + sp) : 0.f;
-                cg[k] += lit[k] ? rad.y * (ag[k] * dnl + sp) : 0.f;
-                cb[k] += lit[k] ? rad.z * (ab[k] * dnl + sp) : 0.f;
-            }
-        }
+            alignas(64) RTCRay16 sr;
+            std::memcpy(sr.org_x, h.qx, sizeof h.qx);
+            std::memcpy(sr.org_y, h.qy, sizeof h.qy);
+            std::memcpy(sr.org_z, h.qz, sizeof h.qz);
+            std::memcpy(sr.dir_x, lx, sizeof sr.dir_x);
+            std::memcpy(sr.dir_y, ly, sizeof sr.dir_y);
+            std::memcpy(sr.dir_z, lz, sizeof sr.dir_z);
+            std::memcpy(sr.tfar, reach, sizeof sr.tfar);
+            std::fill_n(sr.tnear, 16, 0.f);
+            std::fill_n(sr.mask, 16, 0xFFFFFFFFu);
+            std::fill_n(sr.flags, 16, 0u);
+            std::fill_n(sr.time, 16, 0.f);
+            RTCIntersectContext sctx;
+            rtcInitIntersectContext(&sctx);
+            sctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;  // a 4x4 block's rays towards one light
+            alignas(64) int sv[16];
+            std::memcpy(sv, lit, sizeof sv);
+            rtcOccluded16(sv, shadowScene, &sctx, &sr);
+            for (int k = 0; k < 16; ++k)
+                if (sr.tfar[k] < 0.f) lit[k] = 0;
+        };
+        alignas(64) float cr[16], cg[16], cb[16];
+        detail::shadeLanes(h, rays, lights, look.ambient, shadow, cr, cg, cb);
         for (int k = 0; k < n; ++k) {
-            if (!opaque[k]) continue;
+            if (!h.on[k]) continue;
             detail::SampleResult& r = out[k];
             r.color = glm::vec3(cr[k], cg[k], cb[k]);
             r.hit = true;
             r.depth = rh.ray.tfar[k];
-            r.normal = glm::vec3(nx[k], ny[k], nz[k]);
+            r.normal = glm::vec3(h.nx[k], h.ny[k], h.nz[k]);
             r.id = float(rh.hit.geomID[k] + 1);
         }
     };

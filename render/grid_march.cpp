@@ -5,11 +5,13 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <limits>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <stdexcept>
+#include <unordered_map>
 
 #include <openvdb/tools/Interpolation.h>
 #include <openvdb/tools/RayIntersector.h>
@@ -51,17 +53,15 @@ inline int floorInt(double x) {
 }
 
 /// Every 8^3 region of the grid's bounding box (and one region of margin each side) in a flat
-/// array: a leaf's buffer, or the constant value of the tile or background there. A corner fetch
-/// then costs an index computation instead of a tree descent; positions outside the array go
-/// through the accessor. Not built when the array would pass kMaxRegions (a grid spread far and
-/// thin): then every fetch does.
+/// array of pointers to 512 values: a leaf's buffer, or a block holding the constant value of the
+/// tile or background there (one shared block per distinct value). A corner fetch then costs an
+/// index computation and loads instead of a tree descent; positions outside the array go through
+/// the accessor. Not built when the array would pass kMaxRegions (a grid spread far and thin) or the
+/// tiles hold more than kMaxConstants distinct values: then every fetch does.
 class LeafTable {
 public:
-    struct Region {
-        const float* data;  ///< the leaf's values, or null: then `value` everywhere
-        float value;
-    };
-    static constexpr std::size_t kMaxRegions = std::size_t{1} << 22;  // 64 MiB
+    static constexpr std::size_t kMaxRegions = std::size_t{1} << 22;  // 32 MiB of pointers
+    static constexpr std::size_t kMaxConstants = 4096;                // 8 MiB of constant blocks
 
     explicit LeafTable(const openvdb::FloatGrid& grid) {
         const openvdb::FloatTree& tree = grid.tree();
@@ -76,38 +76,80 @@ public:
         }
         const std::size_t count = std::size_t(dims_[0]) * std::size_t(dims_[1]) * std::size_t(dims_[2]);
         if (count > kMaxRegions) return;
-        regions_.assign(count, Region{nullptr, tree.background()});
-        // Tiles level by level (a tile's regions are disjoint from every node below it), then leaves.
+        // First the constant value of every region (tiles level by level: a tile's regions are
+        // disjoint from every node below it), then the leaves' buffers, then constants to blocks.
+        std::vector<float> value(count, tree.background());
+        regions_.assign(count, nullptr);
         using L2 = openvdb::FloatTree::RootNodeType::ChildNodeType;
         using L1 = L2::ChildNodeType;
-        for (auto it = tree.root().cbeginValueAll(); it; ++it) fill(it.getCoord(), L2::DIM, *it);
+        for (auto it = tree.root().cbeginValueAll(); it; ++it) fill(value, it.getCoord(), L2::DIM, *it);
         std::vector<const L2*> upper;
         tree.getNodes(upper);
         for (const L2* node : upper)
-            for (auto it = node->cbeginValueAll(); it; ++it) fill(it.getCoord(), L1::DIM, *it);
+            for (auto it = node->cbeginValueAll(); it; ++it) fill(value, it.getCoord(), L1::DIM, *it);
         std::vector<const L1*> lower;
         tree.getNodes(lower);
         tbb::parallel_for(tbb::blocked_range<std::size_t>(0, lower.size(), 4), [&](const auto& r) {
             for (std::size_t i = r.begin(); i != r.end(); ++i)
                 for (auto it = lower[i]->cbeginValueAll(); it; ++it)
-                    if (Region* reg = mutableAt(it.getCoord())) reg->value = *it;
+                    if (const std::size_t k = indexOf(it.getCoord()); k != kNone) value[k] = *it;
         });
         std::vector<const openvdb::FloatTree::LeafNodeType*> leaves;
         tree.getNodes(leaves);
         tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves.size(), 1024), [&](const auto& r) {
             for (std::size_t i = r.begin(); i != r.end(); ++i)
-                if (Region* reg = mutableAt(leaves[i]->origin())) reg->data = leaves[i]->buffer().data();
+                if (const std::size_t k = indexOf(leaves[i]->origin()); k != kNone)
+                    regions_[k] = leaves[i]->buffer().data();
         });
+        // Constant regions: one block per distinct value (runs of equal values need no lookup).
+        std::unordered_map<std::uint32_t, const float*> blocks;
+        std::uint32_t lastBits = 0;
+        const float* last = nullptr;
+        for (std::size_t k = 0; k < count; ++k) {
+            if (regions_[k]) continue;
+            std::uint32_t bits;
+            std::memcpy(&bits, &value[k], sizeof bits);
+            if (!last || bits != lastBits) {
+                auto [it, fresh] = blocks.emplace(bits, nullptr);
+                if (fresh) {
+                    if (constants_.size() == kMaxConstants) {
+                        regions_.clear();
+                        return;
+                    }
+                    constants_.emplace_back(new float[512]);
+                    std::fill_n(constants_.back().get(), 512, value[k]);
+                    it->second = constants_.back().get();
+                }
+                last = it->second;
+                lastBits = bits;
+            }
+            regions_[k] = last;
+        }
+        for (int k = 0; k < 3; ++k) extent_[k] = 8.0 * dims_[k];
         ok_ = true;
     }
     bool ok() const { return ok_; }
-    /// The region holding voxel c, or null outside the array.
-    const Region* at(int cx, int cy, int cz) const {
+    /// The 512 values of the region holding voxel c (x-major: offset (x & 7) * 64 + (y & 7) * 8 +
+    /// (z & 7)), as a pointer into the table, or null outside the array.
+    const float* const* at(int cx, int cy, int cz) const {
         // Below the base, the unsigned difference wraps to a huge value and fails the bound too.
         const unsigned x = (unsigned(cx) - unsigned(base_[0])) >> 3, y = (unsigned(cy) - unsigned(base_[1])) >> 3,
                        z = (unsigned(cz) - unsigned(base_[2])) >> 3;
         if (x >= unsigned(dims_[0]) || y >= unsigned(dims_[1]) || z >= unsigned(dims_[2])) return nullptr;
         return &regions_[(std::size_t(x) * std::size_t(dims_[1]) + y) * std::size_t(dims_[2]) + z];
+    }
+    /// at() for an index position: the region holding it, or null when the table is not built or
+    /// the position is outside it (or not a number); with the cell (ix, iy, iz) and the fractions.
+    /// Relative to the table's corner positions are not negative, so truncation is floor.
+    const float* const* locate(double x, double y, double z, int& ix, int& iy, int& iz, float& fx, float& fy,
+                               float& fz) const {
+        const double u = x - double(base_[0]), v = y - double(base_[1]), w = z - double(base_[2]);
+        if (!(u >= 0.0 && u < extent_[0] && v >= 0.0 && v < extent_[1] && w >= 0.0 && w < extent_[2])) return nullptr;
+        const int iu = static_cast<int>(u), iv = static_cast<int>(v), iw = static_cast<int>(w);
+        fx = float(u - iu), fy = float(v - iv), fz = float(w - iw);
+        ix = iu + base_[0], iy = iv + base_[1], iz = iw + base_[2];
+        return &regions_[(std::size_t(iu >> 3) * std::size_t(dims_[1]) + std::size_t(iv >> 3)) * std::size_t(dims_[2]) +
+                         std::size_t(iw >> 3)];
     }
     /// True when the regions after the one holding voxel c along x, y and z are in the array too.
     bool hasUpperNeighbours(int cx, int cy, int cz) const {
@@ -119,9 +161,14 @@ public:
     std::size_t strideY() const { return std::size_t(dims_[2]); }
 
 private:
-    Region* mutableAt(const openvdb::Coord& c) { return const_cast<Region*>(at(c.x(), c.y(), c.z())); }
+    static constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
+    /// The array index of the region holding voxel c, or kNone outside.
+    std::size_t indexOf(const openvdb::Coord& c) const {
+        const float* const* r = at(c.x(), c.y(), c.z());
+        return r ? static_cast<std::size_t>(r - regions_.data()) : kNone;
+    }
     /// Sets the value of the regions of a cubic tile (origin, edge `dim` voxels) inside the array.
-    void fill(const openvdb::Coord& origin, int dim, float v) {
+    void fill(std::vector<float>& value, const openvdb::Coord& origin, int dim, float v) const {
         int lo[3], hi[3];
         for (int k = 0; k < 3; ++k) {
             lo[k] = std::max(origin[k], base_[k]);
@@ -131,12 +178,14 @@ private:
         }
         for (int x = lo[0]; x <= hi[0]; x += 8)
             for (int y = lo[1]; y <= hi[1]; y += 8)
-                for (int z = lo[2]; z <= hi[2]; z += 8) mutableAt(openvdb::Coord(x, y, z))->value = v;
+                for (int z = lo[2]; z <= hi[2]; z += 8) value[indexOf(openvdb::Coord(x, y, z))] = v;
     }
 
     int base_[3] = {0, 0, 0};
     int dims_[3] = {0, 0, 0};
-    std::vector<Region> regions_;
+    double extent_[3] = {0, 0, 0};  ///< voxels covered along each axis (0 when not built: every locate fails)
+    std::vector<const float*> regions_;
+    std::vector<std::unique_ptr<float[]>> constants_;
     bool ok_ = false;
 };
 
@@ -200,6 +249,20 @@ public:
         const openvdb::Vec3d f = corners(st, p, c);
         return trilinear(c, f);
     }
+    static float trilinear(const float* c, float fx, float fy, float fz) {
+        const float x00 = c[0] + (c[4] - c[0]) * fx, x01 = c[1] + (c[5] - c[1]) * fx;
+        const float x10 = c[2] + (c[6] - c[2]) * fx, x11 = c[3] + (c[7] - c[3]) * fx;
+        const float y0 = x00 + (x10 - x00) * fy, y1 = x01 + (x11 - x01) * fy;
+        return y0 + (y1 - y0) * fz;
+    }
+    /// Index-space gradient of the trilinear interpolant of a cell at fractions (fx, fy, fz).
+    static void gradient(const float* c, float fx, float fy, float fz, float& gx, float& gy, float& gz) {
+        auto lerp = [](float a, float b, float t) { return a + (b - a) * t; };
+        // d/dx: difference of the x = 1 and x = 0 faces, bilinear in (y, z); likewise for y and z.
+        gx = lerp(lerp(c[4] - c[0], c[6] - c[2], fy), lerp(c[5] - c[1], c[7] - c[3], fy), fz);
+        gy = lerp(lerp(c[2] - c[0], c[6] - c[4], fx), lerp(c[3] - c[1], c[7] - c[5], fx), fz);
+        gz = lerp(lerp(c[1] - c[0], c[5] - c[4], fx), lerp(c[3] - c[2], c[7] - c[6], fx), fy);
+    }
     static float trilinear(const float* c, const openvdb::Vec3d& f) {
         const float fx = float(f.x()), fy = float(f.y()), fz = float(f.z());
         const float x00 = c[0] + (c[4] - c[0]) * fx, x01 = c[1] + (c[5] - c[1]) * fx;
@@ -207,48 +270,49 @@ public:
         const float y0 = x00 + (x10 - x00) * fy, y1 = x01 + (x11 - x01) * fy;
         return y0 + (y1 - y0) * fz;
     }
-    /// The eight corner values (index i = dx * 4 + dy * 2 + dz) of the cell holding p, and p's
-    /// fractional position in it. Read from the thread's cell cache: straight from one leaf buffer
-    /// when the cell lies inside it (7 cells in 8 per axis), else from the cached neighbours.
-    static openvdb::Vec3d corners(ThreadState& st, const openvdb::Vec3d& p, float* c) {
-        const int ix = floorInt(p.x()), iy = floorInt(p.y()), iz = floorInt(p.z());
-        const openvdb::Vec3d f(p.x() - ix, p.y() - iy, p.z() - iz);
+    /// The eight corner values (index i = dx * 4 + dy * 2 + dz) of the cell holding index position
+    /// (x, y, z), and the position's fractions in it: from one region's values when the cell lies
+    /// inside it (7 cells in 8 per axis), else from the neighbouring regions it reaches into.
+    static inline __attribute__((always_inline)) void fetch(ThreadState& st, double x, double y, double z, float* c,
+                                                            float& fx, float& fy, float& fz) {
         const LeafTable& table = *st.table;
-        const LeafTable::Region* r = table.ok() ? table.at(ix, iy, iz) : nullptr;
-        const int lx = ix & 7, ly = iy & 7, lz = iz & 7;
-        if (r && lx < 7 && ly < 7 && lz < 7) {
-            if (const float* base = r->data) {
-                const float* d = base + ((lx << 6) | (ly << 3) | lz);
-                c[0] = d[0];
-                c[1] = d[1];
-                c[2] = d[8];
-                c[3] = d[9];
-                c[4] = d[64];
-                c[5] = d[65];
-                c[6] = d[72];
-                c[7] = d[73];
-            } else {
-                std::fill(c, c + 8, r->value);
+        int ix, iy, iz;
+        if (const float* const* r = table.locate(x, y, z, ix, iy, iz, fx, fy, fz)) {
+            const int lx = ix & 7, ly = iy & 7, lz = iz & 7;
+            if (lx < 7 && ly < 7 && lz < 7) {
+                const float* d = *r + ((lx << 6) | (ly << 3) | lz);
+                c[0] = d[0], c[1] = d[1], c[2] = d[8], c[3] = d[9];
+                c[4] = d[64], c[5] = d[65], c[6] = d[72], c[7] = d[73];
+                return;
             }
-            return f;
-        }
-        // The cell reaches into the next region along some axis: per axis, the region step and the
-        // in-leaf offset of its lower and upper corner.
-        if (r && table.hasUpperNeighbours(ix, iy, iz)) {
-            const std::size_t rx[2] = {0, lx == 7 ? table.strideX() : 0}, ry[2] = {0, ly == 7 ? table.strideY() : 0},
-                              rz[2] = {0, lz == 7 ? std::size_t{1} : 0};
-            const int ox[2] = {lx << 6, ((lx + 1) & 7) << 6}, oy[2] = {ly << 3, ((ly + 1) & 7) << 3},
-                      oz[2] = {lz, (lz + 1) & 7};
-            for (int i = 0; i < 8; ++i) {
-                const int dx = i >> 2, dy = (i >> 1) & 1, dz = i & 1;
-                const LeafTable::Region& q = r[rx[dx] + ry[dy] + rz[dz]];
-                c[i] = q.data ? q.data[ox[dx] | oy[dy] | oz[dz]] : q.value;
+            if (table.hasUpperNeighbours(ix, iy, iz)) {
+                // Per axis: the step to the next region when the cell reaches into it, and the
+                // offsets of the lower and upper corner in their regions.
+                const std::size_t sx = lx == 7 ? table.strideX() : 0, sy = ly == 7 ? table.strideY() : 0,
+                                  sz = lz == 7 ? 1 : 0;
+                const int x0 = lx << 6, x1 = ((lx + 1) & 7) << 6, y0 = ly << 3, y1 = ((ly + 1) & 7) << 3, z0 = lz,
+                          z1 = (lz + 1) & 7;
+                c[0] = r[0][x0 | y0 | z0];
+                c[1] = r[sz][x0 | y0 | z1];
+                c[2] = r[sy][x0 | y1 | z0];
+                c[3] = r[sy + sz][x0 | y1 | z1];
+                c[4] = r[sx][x1 | y0 | z0];
+                c[5] = r[sx + sz][x1 | y0 | z1];
+                c[6] = r[sx + sy][x1 | y1 | z0];
+                c[7] = r[sx + sy + sz][x1 | y1 | z1];
+                return;
             }
-            return f;
         }
+        ix = floorInt(x), iy = floorInt(y), iz = floorInt(z);
+        fx = float(x - ix), fy = float(y - iy), fz = float(z - iz);
         const openvdb::Coord ijk(ix, iy, iz);
         for (int i = 0; i < 8; ++i) c[i] = st.acc.getValue(ijk.offsetBy(i >> 2, (i >> 1) & 1, i & 1));
-        return f;
+    }
+    /// fetch() for a position as a vector; the fractions as a vector.
+    static openvdb::Vec3d corners(ThreadState& st, const openvdb::Vec3d& p, float* c) {
+        float fx, fy, fz;
+        fetch(st, p.x(), p.y(), p.z(), c, fx, fy, fz);
+        return {fx, fy, fz};
     }
     unsigned insideMask(float v) const {
         unsigned m = 0;
@@ -336,41 +400,45 @@ public:
     /// sphere tracing; where the ray runs along the surface, plain distance steps are taken.
     std::optional<Crossing> nearLevelSet(ThreadState& st, const Line& ray, double ta, double tb,
                                          bool& startInside) const {
+        // Positions in double (index coordinates may be large), everything within a cell in float.
         startInside = false;
         const float iso = layers_[0].iso;
-        const double side = below_ ? 1.0 : -1.0;  // side * (v - iso) > 0 outside
-        double t = ta, prevT = ta, prevDist = 0;
+        const float side = below_ ? 1.f : -1.f;  // side * (v - iso) > 0 outside
+        const float dx = float(ray.d.x()), dy = float(ray.d.y()), dz = float(ray.d.z());
+        const float voxel = float(voxel_), perVoxel = float(1.0 / voxel_);
+        double t = ta, prevT = ta;
+        float prevDist = 0.f;
         bool havePrev = false;
         for (;;) {
-            float c[8];
-            const openvdb::Vec3d p = ray(t);
-            const openvdb::Vec3d f = corners(st, p, c);
-            const float v = trilinear(c, f);
-            const double dist = side * (double(v) - iso);  // > 0 outside (in value units)
-            const bool inside = below_ ? v < iso : v > iso;
-            const openvdb::Vec3d g = gradient(c, f);
-            const double rate = side * g.dot(ray.d);  // change of dist per unit of ray time
-            if (inside) {
+            float c[8], fx, fy, fz;
+            fetch(st, ray.o.x() + ray.d.x() * t, ray.o.y() + ray.d.y() * t, ray.o.z() + ray.d.z() * t, c, fx, fy, fz);
+            const float v = trilinear(c, fx, fy, fz);
+            const float dist = side * (v - iso);  // > 0 outside (in value units)
+            float gx, gy, gz;
+            gradient(c, fx, fy, fz, gx, gy, gz);
+            const float rate = side * (gx * dx + gy * dy + gz * dz);  // change of dist per unit of ray time
+            if (below_ ? v < iso : v > iso) {
                 if (!havePrev) {  // not outside here: let the full path decide, from the eye
                     startInside = true;
                     return std::nullopt;
                 }
                 // Bracketed in [prevT, t]: Newton back from the inside sample, else interpolation.
-                double x = rate < 0 ? t + dist / rate : prevT;  // dist <= 0 here
-                if (!(x > prevT && x < t)) x = prevT + (t - prevT) * std::clamp(prevDist / (prevDist - dist), 0.0, 1.0);
+                double x = rate < 0.f ? t + double(dist / rate) : prevT;  // dist <= 0 here
+                if (!(x > prevT && x < t))
+                    x = prevT + (t - prevT) * double(std::clamp(prevDist / (prevDist - dist), 0.f, 1.f));
                 Crossing cr{std::max(prevT, x - 1e-3), 0, true};
                 cr.hasGradient = true;
-                cr.gradient = g;
+                cr.gradient = openvdb::Vec3d(gx, gy, gz);
                 return cr;
             }
             havePrev = true;
             prevT = t;
             prevDist = dist;
             if (t >= tb) return std::nullopt;
-            const double bound = 2.0 * dist / voxel_ + 0.25;
-            double step = dist / voxel_ + 0.25;  // sphere tracing, for rays running along the surface
-            if (rate < -1e-3 * voxel_) step = std::max(step, std::min(dist / -rate + 0.1, bound));
-            t = std::min(t + std::max(step, 0.1), tb);  // the last sample at tb exactly
+            const float voxels = dist * perVoxel;
+            float step = voxels + 0.25f;  // sphere tracing, for rays running along the surface
+            if (rate < -1e-3f * voxel) step = std::max(step, std::min(dist / -rate + 0.1f, 2.f * voxels + 0.25f));
+            t = std::min(t + double(std::max(step, 0.1f)), tb);  // the last sample at tb exactly
         }
     }
 
@@ -694,12 +762,16 @@ Frame PreparedGrid::render(const Look& look, const RenderOptions& o, RenderStats
         if (impl_->prepass && marcher.insideMask(GridMarcher::sample(probe, e)) == 0)
             span = depthPrepass(grid, impl_->boxes, gen, o);
     }
-    // Fills `out` (reset by the caller) for one camera sample.
+    const float aoReach = o.aoDistance > 0 ? o.aoDistance : float(20 * voxel);
+    // One camera sample. When `lanes` is given and the pre-pass span finds the first crossing on an
+    // opaque layer (nothing behind it shows), that hit goes to lane k of `lanes`, to be shaded with
+    // the block's other lanes, and trace returns true; otherwise it fills `out` (reset by the
+    // caller) and returns false.
     auto trace = [&](ThreadState& st, const detail::Ray& ray, std::size_t pix, std::size_t s, float py,
-                     detail::SampleResult& out) {
+                     detail::SampleResult& out, detail::HitLanes* lanes, int k) {
         if (!span.empty() && !(span[pix].near <= span[pix].far)) {  // no box covers this pixel
             out.color = background.at(py, o.height);
-            return;
+            return false;
         }
         glm::vec3 acc(0.f);
         float transmit = 1.f;
@@ -722,9 +794,33 @@ Frame PreparedGrid::render(const Look& look, const RenderOptions& o, RenderStats
                 tEnd = std::numeric_limits<double>::max();
             } else if (early) {
                 confined = true;
+                const IsoLayer& L = layers[static_cast<std::size_t>(early->layer)];
+                if (lanes && L.material.color.a >= 1.f) {
+                    const openvdb::Vec3d ip = iray(early->t);
+                    const float tWorld = float(early->t * voxel);
+                    const glm::vec3 p = ray.origin + ray.dir * tWorld;  // affine: the pre-pass applies
+                    glm::vec3 n =
+                        early->hasGradient ? marcher.worldNormal(early->gradient, ip) : marcher.normal(st, ip);
+                    if (glm::dot(n, ray.dir) > 0) n = -n;
+                    const glm::vec3 q = p + n * float(0.75 * voxel);
+                    lanes->on[k] = -1;
+                    lanes->px[k] = p.x, lanes->py[k] = p.y, lanes->pz[k] = p.z;
+                    lanes->nx[k] = n.x, lanes->ny[k] = n.y, lanes->nz[k] = n.z;
+                    lanes->qx[k] = q.x, lanes->qy[k] = q.y, lanes->qz[k] = q.z;
+                    lanes->setMaterial(k, albedo[static_cast<std::size_t>(early->layer)], L.material);
+                    if (o.aoSamples > 0)
+                        lanes->ao[k] =
+                            detail::ambientOcclusion(n, o.aoSamples, static_cast<std::uint32_t>(pix * 64u + s * 16u),
+                                                     [&](const glm::vec3& d) { return !blocked(st, q, d, aoReach); });
+                    out.hit = true;
+                    out.depth = tWorld;
+                    out.normal = n;
+                    out.id = float(early->layer + 1);
+                    return true;
+                }
             } else {
                 out.color = background.at(py, o.height);
-                return;
+                return false;
             }
         }
         for (int layer = 0; layer < 16 && transmit > 0.004f; ++layer) {
@@ -752,7 +848,7 @@ Frame PreparedGrid::render(const Look& look, const RenderOptions& o, RenderStats
             const float tWorld = float(c->t * voxel);
             acc += transmit * surf.opacity *
                    detail::shadeHit(
-                       surf, origin, ray.dir, look, lights, o, o.aoDistance > 0 ? o.aoDistance : float(20 * voxel),
+                       surf, origin, ray.dir, look, lights, o, aoReach,
                        static_cast<std::uint32_t>(pix * 64u + s * 16u + static_cast<std::size_t>(layer)),
                        [&](const glm::vec3& org, const glm::vec3& d, float tmax) { return blocked(st, org, d, tmax); });
             if (!out.hit) {
@@ -765,13 +861,31 @@ Frame PreparedGrid::render(const Look& look, const RenderOptions& o, RenderStats
             t = c->t + 0.3;  // past this crossing
         }
         out.color = acc + transmit * background.at(py, o.height);
+        return false;
     };
     Frame f = detail::renderBlocks(
         look, o,
         [&](const detail::RayBlock& rays, int n, const std::size_t* pix, std::size_t s, const float* py,
             detail::SampleResult* out) {
             ThreadState& st = states.local();
-            for (int k = 0; k < n; ++k) trace(st, rays[k], pix[k], s, py[k], out[k]);
+            detail::HitLanes h;
+            h.clear();
+            bool any = false;
+            for (int k = 0; k < n; ++k) any |= trace(st, rays[k], pix[k], s, py[k], out[k], &h, k);
+            if (!any) return;
+            // The opaque first hits shaded together (shadows: a march towards each light per lane).
+            auto shadow = [&](std::size_t li, const float* lx, const float* ly, const float* lz, const float* reach,
+                              int* lit) {
+                if (!o.shadows) return;
+                for (int k = 0; k < 16; ++k)
+                    if (lit[k] &&
+                        blocked(st, glm::vec3(h.qx[k], h.qy[k], h.qz[k]), glm::vec3(lx[k], ly[k], lz[k]), reach[k]))
+                        lit[k] = 0;
+            };
+            alignas(64) float cr[16], cg[16], cb[16];
+            detail::shadeLanes(h, rays, lights, look.ambient, shadow, cr, cg, cb);
+            for (int k = 0; k < n; ++k)
+                if (h.on[k]) out[k].color = glm::vec3(cr[k], cg[k], cb[k]);
         },
         hitPixels);
     if (stats) {

@@ -219,6 +219,103 @@ glm::vec3 shade(const Surface& s, const glm::vec3& viewDir, const LightSet& ligh
     return c;
 }
 
+/// Up to 16 opaque hits as structure of arrays, for shadeLanes. Lanes without a hit (on[k] == 0)
+/// hold harmless values (clear() sets them), so that loops may run over all 16.
+struct HitLanes {
+    alignas(64) int on[16];                    ///< -1 for lanes holding a hit, else 0
+    alignas(64) float px[16], py[16], pz[16];  ///< hit positions
+    alignas(64) float nx[16], ny[16], nz[16];  ///< unit normals, facing the viewer
+    alignas(64) float qx[16], qy[16], qz[16];  ///< where secondary rays start (just off the surface)
+    alignas(64) float ar[16], ag[16], ab[16];  ///< albedo, linear
+    alignas(64) float kd[16], ks[16], shin[16];
+    alignas(64) float ao[16];  ///< ambient occlusion factor (1: none)
+    void clear() {
+        std::fill_n(on, 16, 0);
+        for (float* a : {px, py, pz, nx, ny, qx, qy, qz, ar, ag, ab, kd, ks}) std::fill_n(a, 16, 0.f);
+        for (float* a : {nz, shin, ao}) std::fill_n(a, 16, 1.f);
+    }
+    void setMaterial(int k, const glm::vec3& albedo, const implicit::Material& m) {
+        ar[k] = albedo.x, ag[k] = albedo.y, ab[k] = albedo.z;
+        kd[k] = m.diffuse, ks[k] = m.specular, shin[k] = m.shininess;
+    }
+};
+
+/// Blinn-Phong with the hemispherical ambient term for every lane of `h`, as shade() computes it
+/// one hit at a time (the same operations, in loops over the lanes that the compiler vectorizes):
+/// colours into r, g, b. For each light, `shadow(li, lx, ly, lz, reach, lit)` is given the unit
+/// vectors towards light li, how far it is, and the lanes it would light (lit[k] == -1); it sets
+/// lit[k] = 0 where something blocks the way.
+template <class Shadow>
+void shadeLanes(const HitLanes& h, const RayBlock& rays, const LightSet& lights, float ambient, Shadow&& shadow,
+                float* r, float* g, float* b) {
+    for (int k = 0; k < 16; ++k) {
+        const float a = ambient * (0.6f + 0.4f * h.nz[k]) * h.ao[k];
+        r[k] = h.ar[k] * a, g[k] = h.ag[k] * a, b[k] = h.ab[k] * a;
+    }
+    // One whole specular exponent for every lane (one material, or several alike): raised by
+    // squaring across the lanes; otherwise lane by lane.
+    float exponent = 0.f;
+    bool first = true, oneExponent = true;
+    for (int k = 0; k < 16; ++k)
+        if (h.on[k]) {
+            if (first) exponent = h.shin[k], first = false;
+            oneExponent = oneExponent && h.shin[k] == exponent;
+        }
+    const bool wholeExponent =
+        oneExponent && exponent >= 0.f && exponent <= kMaxIntegerShininess && exponent == std::floor(exponent);
+    constexpr float kInf = std::numeric_limits<float>::infinity();
+    for (std::size_t li = 0; li < lights.size(); ++li) {
+        alignas(64) float lx[16], ly[16], lz[16], reach[16], nl[16];
+        const Light& light = lights[li];
+        if (light.point) {
+            for (int k = 0; k < 16; ++k) {
+                const float dx = light.vector.x - h.px[k], dy = light.vector.y - h.py[k], dz = light.vector.z - h.pz[k];
+                const float l = std::sqrt(dx * dx + dy * dy + dz * dz);
+                const float d = l > 0.f ? l : 1.f;
+                lx[k] = dx / d, ly[k] = dy / d, lz[k] = dz / d;
+                const float rx = light.vector.x - h.qx[k], ry = light.vector.y - h.qy[k], rz = light.vector.z - h.qz[k];
+                reach[k] = std::sqrt(rx * rx + ry * ry + rz * rz);
+            }
+        } else {
+            const glm::vec3 L = lights.towards(li, glm::vec3(0.f));
+            for (int k = 0; k < 16; ++k) lx[k] = L.x, ly[k] = L.y, lz[k] = L.z, reach[k] = kInf;
+        }
+        for (int k = 0; k < 16; ++k) nl[k] = h.nx[k] * lx[k] + h.ny[k] * ly[k] + h.nz[k] * lz[k];
+        alignas(64) int lit[16];
+        int litCount = 0;
+        for (int k = 0; k < 16; ++k) {
+            lit[k] = h.on[k] & (nl[k] > 0.f ? -1 : 0);
+            litCount -= lit[k];
+        }
+        if (litCount == 0) continue;
+        shadow(li, lx, ly, lz, reach, lit);
+        alignas(64) float nh[16], spec[16];
+        for (int k = 0; k < 16; ++k) {
+            const float hx = lx[k] - rays.dx[k], hy = ly[k] - rays.dy[k], hz = lz[k] - rays.dz[k];
+            const float l = std::sqrt(hx * hx + hy * hy + hz * hz);
+            const float d = l > 0.f ? l : 1.f;
+            nh[k] = std::max((h.nx[k] * hx + h.ny[k] * hy + h.nz[k] * hz) / d, 0.f);
+        }
+        if (wholeExponent) {
+            for (int k = 0; k < 16; ++k) spec[k] = 1.f;
+            for (unsigned e = static_cast<unsigned>(exponent); e; e >>= 1) {
+                if (e & 1u)
+                    for (int k = 0; k < 16; ++k) spec[k] *= nh[k];
+                for (int k = 0; k < 16; ++k) nh[k] *= nh[k];
+            }
+        } else {
+            for (int k = 0; k < 16; ++k) spec[k] = h.on[k] ? specularPower(nh[k], h.shin[k]) : 0.f;
+        }
+        const glm::vec3 rad = lights.radiance(li);
+        for (int k = 0; k < 16; ++k) {
+            const float dnl = h.kd[k] * nl[k], sp = h.ks[k] * spec[k];
+            r[k] += lit[k] ? rad.x * (h.ar[k] * dnl + sp) : 0.f;
+            g[k] += lit[k] ? rad.y * (h.ag[k] * dnl + sp) : 0.f;
+            b[k] += lit[k] ? rad.z * (h.ab[k] * dnl + sp) : 0.f;
+        }
+    }
+}
+
 /// The background gradient in linear light, converted once per frame.
 class Background {
 public:
