@@ -239,7 +239,7 @@ public:
             const openvdb::Mat3d j = g.transform().baseMap()->getAffineMap()->getMat4().getMat3();
             const openvdb::Mat3d inv = j.inverse();
             for (int r = 0; r < 3; ++r)
-                for (int c = 0; c < 3; ++c) inv_[r][c] = inv(r, c);
+                for (int c = 0; c < 3; ++c) invf_[r][c] = float(inv(r, c));
         }
     }
 
@@ -307,6 +307,16 @@ public:
         fx = float(x - ix), fy = float(y - iy), fz = float(z - iz);
         const openvdb::Coord ijk(ix, iy, iz);
         for (int i = 0; i < 8; ++i) c[i] = st.acc.getValue(ijk.offsetBy(i >> 2, (i >> 1) & 1, i & 1));
+    }
+    /// Asks for the cache lines of the cell holding index position p (no effect outside the table).
+    static void prefetch(ThreadState& st, const openvdb::Vec3d& p) {
+        int ix, iy, iz;
+        float fx, fy, fz;
+        if (const float* const* r = st.table->locate(p.x(), p.y(), p.z(), ix, iy, iz, fx, fy, fz)) {
+            const float* d = *r + (((ix & 7) << 6) | ((iy & 7) << 3) | (iz & 7));
+            __builtin_prefetch(d);
+            __builtin_prefetch(d + 64);
+        }
     }
     /// fetch() for a position as a vector; the fractions as a vector.
     static openvdb::Vec3d corners(ThreadState& st, const openvdb::Vec3d& p, float* c) {
@@ -503,14 +513,19 @@ public:
         return {gx, gy, gz};
     }
     /// Outward unit normal (world) from an index-space gradient at index position p.
+    /// (In float for affine maps: a direction needs no more.)
     glm::vec3 worldNormal(const openvdb::Vec3d& g, const openvdb::Vec3d& p) const {
-        openvdb::Vec3d w = affine_ ? openvdb::Vec3d(inv_[0][0] * g.x() + inv_[0][1] * g.y() + inv_[0][2] * g.z(),
-                                                    inv_[1][0] * g.x() + inv_[1][1] * g.y() + inv_[1][2] * g.z(),
-                                                    inv_[2][0] * g.x() + inv_[2][1] * g.y() + inv_[2][2] * g.z())
-                                   : g_.transform().baseMap()->applyIJT(g, p);
-        if (!below_) w = -w;
-        const double len = w.length();
-        return len > 0 ? glm::vec3(w.x() / len, w.y() / len, w.z() / len) : glm::vec3(0, 0, 1);
+        glm::vec3 w;
+        if (affine_) {
+            const glm::vec3 gf(float(g.x()), float(g.y()), float(g.z()));
+            w = glm::vec3(glm::dot(invf_[0], gf), glm::dot(invf_[1], gf), glm::dot(invf_[2], gf));
+        } else {
+            const openvdb::Vec3d wd = g_.transform().baseMap()->applyIJT(g, p);
+            w = glm::vec3(float(wd.x()), float(wd.y()), float(wd.z()));
+        }
+        const float len2 = glm::dot(w, w);
+        if (!(len2 > 0.f)) return glm::vec3(0, 0, 1);
+        return w * ((below_ ? 1.f : -1.f) / std::sqrt(len2));
     }
 
 private:
@@ -518,7 +533,7 @@ private:
     const std::vector<IsoLayer>& layers_;
     bool below_, levelSet_, affine_ = false;
     double voxel_;
-    double inv_[3][3] = {};
+    glm::vec3 invf_[3] = {};  ///< rows of the inverse of the index-to-world matrix
 };
 
 /// View depths between which a pixel's rays may cross a surface (near > far: none).
@@ -763,19 +778,23 @@ Frame PreparedGrid::render(const Look& look, const RenderOptions& o, RenderStats
             span = depthPrepass(grid, impl_->boxes, gen, o);
     }
     const float aoReach = o.aoDistance > 0 ? o.aoDistance : float(20 * voxel);
+    // Where a covered pixel's march starts (index-ray time), from its span and the ray's index time
+    // per unit of view depth.
+    auto spanStart = [](const DepthSpan& d, double perDepth) {
+        return std::max(0.0, double(d.near) * perDepth - 0.01);
+    };
     // One camera sample. When `lanes` is given and the pre-pass span finds the first crossing on an
     // opaque layer (nothing behind it shows), that hit goes to lane k of `lanes`, to be shaded with
     // the block's other lanes, and trace returns true; otherwise it fills `out` (reset by the
     // caller) and returns false.
-    auto trace = [&](ThreadState& st, const detail::Ray& ray, std::size_t pix, std::size_t s, float py,
-                     detail::SampleResult& out, detail::HitLanes* lanes, int k) {
+    auto trace = [&](ThreadState& st, const detail::Ray& ray, const Line& iray, std::size_t pix, std::size_t s,
+                     float py, detail::SampleResult& out, detail::HitLanes* lanes, int k) {
         if (!span.empty() && !(span[pix].near <= span[pix].far)) {  // no box covers this pixel
             out.color = background.at(py, o.height);
             return false;
         }
         glm::vec3 acc(0.f);
         float transmit = 1.f;
-        const Line iray = toIndexRay(ray.origin, ray.dir);
         double t = 0;
         double tEnd = std::numeric_limits<double>::max();
         std::optional<Crossing> early;
@@ -785,7 +804,7 @@ Frame PreparedGrid::render(const Look& look, const RenderOptions& o, RenderStats
             // alone, from outside (the eye is outside every layer, and nothing is crossed before).
             const DepthSpan& d = span[pix];  // covered: checked above
             const double perDepth = 1.0 / double(glm::dot(ray.dir, gen.forward())) / voxel;
-            t = std::max(0.0, double(d.near) * perDepth - 0.01);
+            t = spanStart(d, perDepth);
             tEnd = double(d.far) * perDepth + 0.01;
             bool startInside = false;
             early = marcher.near(st, iray, t, tEnd, startInside);
@@ -868,10 +887,23 @@ Frame PreparedGrid::render(const Look& look, const RenderOptions& o, RenderStats
         [&](const detail::RayBlock& rays, int n, const std::size_t* pix, std::size_t s, const float* py,
             detail::SampleResult* out) {
             ThreadState& st = states.local();
+            // Index rays first, with a prefetch of the cell where each covered pixel's march starts:
+            // the block's cache misses then overlap instead of each ray waiting for its own.
+            Line irays[16];
+            for (int k = 0; k < n; ++k) {
+                irays[k] = toIndexRay(glm::vec3(rays.ox[k], rays.oy[k], rays.oz[k]),
+                                      glm::vec3(rays.dx[k], rays.dy[k], rays.dz[k]));
+                if (span.empty() || !(span[pix[k]].near <= span[pix[k]].far)) continue;
+                const double perDepth =
+                    1.0 /
+                    double(rays.dx[k] * gen.forward().x + rays.dy[k] * gen.forward().y + rays.dz[k] * gen.forward().z) /
+                    voxel;
+                marcher.prefetch(st, irays[k](spanStart(span[pix[k]], perDepth)));
+            }
             detail::HitLanes h;
             h.clear();
             bool any = false;
-            for (int k = 0; k < n; ++k) any |= trace(st, rays[k], pix[k], s, py[k], out[k], &h, k);
+            for (int k = 0; k < n; ++k) any |= trace(st, rays[k], irays[k], pix[k], s, py[k], out[k], &h, k);
             if (!any) return;
             // The opaque first hits shaded together (shadows: a march towards each light per lane).
             auto shadow = [&](std::size_t li, const float* lx, const float* ly, const float* lz, const float* reach,
