@@ -645,3 +645,53 @@ TEST(Renderers, EmbreePacketsShadeAsOneRayAtATime) {
     rtcReleaseScene(scene);
     rtcReleaseDevice(dev);
 }
+
+TEST(Renderers, GridsOfConstantTilesRenderAsBruteForceFinds) {
+    // A fog volume made only of 8^3 tiles, each with its own constant value (a radial ramp): the
+    // iso-surface runs between tiles, where the trilinear field blends their values. Quantized to
+    // 1,000 distinct values, the region table shares one block per value; with 9,261 distinct values
+    // it is not built (over its cap) and every fetch goes through the accessor. Both as brute force.
+    for (int levels : {1000, 0}) {
+        auto fog = openvdb::FloatGrid::create(0.f);
+        fog->setGridClass(openvdb::GRID_FOG_VOLUME);
+        fog->setTransform(openvdb::math::Transform::createLinearTransform(0.1));
+        std::vector<float> values;
+        for (int i = -10; i <= 10; ++i)
+            for (int j = -10; j <= 10; ++j)
+                for (int k = -10; k <= 10; ++k) {
+                    float v = std::max(0.f, 1.f - std::sqrt(float(i * i + j * j + k * k)) / 10.f) +
+                              1e-4f * float((i + 10) * 441 + (j + 10) * 21 + (k + 10)) / 9261.f;
+                    if (levels) v = std::round(v * float(levels)) / float(levels);
+                    fog->tree().addTile(1, openvdb::Coord(8 * i, 8 * j, 8 * k), v, true);
+                    values.push_back(v);
+                }
+        std::sort(values.begin(), values.end());
+        const auto distinct = std::unique(values.begin(), values.end()) - values.begin();
+        EXPECT_EQ(distinct > 4096, levels == 0) << distinct << " distinct tile values";
+        render::IsoLayer layer;
+        layer.iso = 0.45f;
+        const int w = 120, h = 90;
+        auto o = small(w, h);
+        o.depth = true;
+        render::Look look;
+        look.camera =
+            render::frameBox({glm::vec3(-4.5f), glm::vec3(4.5f)}, float(w) / float(h), glm::vec3(0.3f, 1.f, 0.2f));
+        const render::Frame fast = render::PreparedGrid(*fog, {layer}, false).render(look, o);
+        const render::detail::RayGenerator gen(look.camera, w, h);
+        std::size_t checked = 0, hits = 0, hitsDiffer = 0, depthsDiffer = 0;
+        for (std::size_t i = 0; i < fast.pixels(); i += 3) {
+            const auto [bt, bl] = bruteFirstHit(*fog, {layer}, false, gen(float(i % w) + 0.5f, float(i / w) + 0.5f));
+            const bool fastHit = std::isfinite(fast.depth[i]);
+            ++checked;
+            hits += fastHit;
+            if (fastHit != (bl >= 0)) {
+                ++hitsDiffer;
+                continue;
+            }
+            if (fastHit) depthsDiffer += std::abs(fast.depth[i] - bt) > 0.01f;  // a tenth of a voxel
+        }
+        EXPECT_GT(hits, checked / 8) << levels;
+        EXPECT_LE(hitsDiffer, checked / 500) << levels;
+        EXPECT_LE(depthsDiffer, checked / 200) << levels;
+    }
+}
