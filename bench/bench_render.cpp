@@ -1,12 +1,14 @@
 // Primary-ray throughput at 1024x1024, 1 and 2 threads, side by side on one surface:
-//   Embree path (a ~1M-triangle mesh of the sphere, shaded, one light, hard shadows),
+//   Embree path (a ~1M-triangle mesh of the sphere, shaded, one light, hard shadows), and Embree's
+//   packets alone on the same rays (primary and shadow packets, no shading: what the shaded path
+//   would reach if shading cost nothing; also measured in 7 alternating pairs of frames),
 //   direct grid marcher (the level set itself: per frame on a PreparedGrid, and as one call that
 //   prepares too), direct field marcher (the analytic sphere),
 //   OpenVDB's LevelSetRayIntersector driven over the same image and camera (hits and normals only),
 //   and vdb_render as a whole process (read, render, write; -shader diffuse).
 // The grid marcher / intersector ratio is also measured in 7 alternating pairs of frames per thread
 // count (both then see the same state of a machine whose speed drifts).
-// Usage: bench_render [--quick] [--only N] [--threads T]   (for profiling: row N = 0..6 alone, T threads alone)
+// Usage: bench_render [--quick] [--only N] [--threads T]   (for profiling: row N = 0..7 alone, T threads alone)
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
@@ -14,6 +16,7 @@
 #include <filesystem>
 #include <memory>
 
+#include <embree3/rtcore.h>
 #include <openvdb/tools/LevelSetSphere.h>
 #include <openvdb/tools/RayIntersector.h>
 #include <tbb/enumerable_thread_specific.h>
@@ -46,7 +49,7 @@ int main(int argc, char** argv) {
     volume::MeshingOptions mo;
     mo.normals = true;
     // The mesh is only needed by the Embree rows (skipped when profiling another one).
-    const mesh::TriMesh m = only <= 1 ? volume::extractIsosurface(*grid, mo) : mesh::TriMesh{};
+    const mesh::TriMesh m = only <= 1 || only == 7 ? volume::extractIsosurface(*grid, mo) : mesh::TriMesh{};
     const auto sphere = implicit::makeSphere(radius);
 
     render::Look look;
@@ -61,8 +64,93 @@ int main(int argc, char** argv) {
                 size, size, radius, radius / voxel, m.triangleCount());
     std::printf("%-48s %10s %10s\n", "", "1 thread", "2 threads");
 
-    double mr[7][2] = {};
-    double pairedRatio[2][3] = {};  // median, lowest, highest of 7 pairs
+    double mr[8][2] = {};
+    double pairedRatio[2][3] = {};    // median, lowest, highest of 7 pairs
+    double pairedShading[2][3] = {};  // shaded Embree frame time / bare packets frame time, 7 pairs
+    // Embree's packets alone: the renderer's 4x4 blocks, primary packets, then a shadow packet of the
+    // lanes facing the light, started as far off the surface as the renderer starts them.
+    RTCDevice device = only <= 1 || only == 7 ? rtcNewDevice(nullptr) : nullptr;
+    RTCScene bare = nullptr;
+    float lift = 0.f;
+    if (device) {
+        bare = rtcNewScene(device);
+        rtcSetSceneBuildQuality(bare, RTC_BUILD_QUALITY_HIGH);
+        rtcSetSceneFlags(bare, RTC_SCENE_FLAG_ROBUST);
+        RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+        std::memcpy(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 12, m.positions.size()),
+                    m.positions.data(), 12 * m.positions.size());
+        std::memcpy(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 12, m.triangles.size()),
+                    m.triangles.data(), 12 * m.triangles.size());
+        rtcCommitGeometry(g);
+        rtcAttachGeometry(bare, g);
+        rtcReleaseGeometry(g);
+        rtcCommitScene(bare);
+        double edges = 0;
+        for (const auto& t : m.triangles)
+            edges += double(glm::length(m.positions[t.y] - m.positions[t.x])) +
+                     glm::length(m.positions[t.z] - m.positions[t.y]) +
+                     glm::length(m.positions[t.x] - m.positions[t.z]);
+        lift = float(0.25 * edges / (3.0 * double(m.triangles.size())));
+    }
+    auto bareFrame = [&] {
+        const double t0 = bench::now();
+        const render::detail::RayGenerator gen(look.camera, size, size);
+        const glm::vec3 L = -glm::normalize(look.lights[0].vector);
+        tbb::parallel_for(tbb::blocked_range<int>(0, (size / 16) * (size / 16), 1), [&](const auto& r) {
+            for (int tile = r.begin(); tile != r.end(); ++tile) {
+                const int tx = (tile % (size / 16)) * 16, ty = (tile / (size / 16)) * 16;
+                for (int by = ty; by < ty + 16; by += 4)
+                    for (int bx = tx; bx < tx + 16; bx += 4) {
+                        float xs[16], ys[16];
+                        for (int k = 0; k < 16; ++k)
+                            xs[k] = float(bx + (k & 3)) + 0.5f, ys[k] = float(by + (k >> 2)) + 0.5f;
+                        render::detail::RayBlock b;
+                        gen.block(xs, ys, b);
+                        alignas(64) int valid[16];
+                        alignas(64) RTCRayHit16 rh;
+                        std::memcpy(rh.ray.org_x, b.ox, 64), std::memcpy(rh.ray.org_y, b.oy, 64);
+                        std::memcpy(rh.ray.org_z, b.oz, 64), std::memcpy(rh.ray.dir_x, b.dx, 64);
+                        std::memcpy(rh.ray.dir_y, b.dy, 64), std::memcpy(rh.ray.dir_z, b.dz, 64);
+                        for (int k = 0; k < 16; ++k) {
+                            valid[k] = -1;
+                            rh.ray.tnear[k] = 0.f, rh.ray.tfar[k] = std::numeric_limits<float>::infinity();
+                            rh.ray.mask[k] = ~0u, rh.ray.flags[k] = 0, rh.ray.time[k] = 0.f;
+                            rh.hit.geomID[k] = rh.hit.instID[0][k] = RTC_INVALID_GEOMETRY_ID;
+                        }
+                        RTCIntersectContext ctx;
+                        rtcInitIntersectContext(&ctx);
+                        ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+                        rtcIntersect16(valid, bare, &ctx, &rh);
+                        alignas(64) int sv[16];
+                        alignas(64) RTCRay16 sr;
+                        bool any = false;
+                        for (int k = 0; k < 16; ++k) {
+                            sv[k] = 0;
+                            sr.tnear[k] = 0.f, sr.tfar[k] = std::numeric_limits<float>::infinity();
+                            sr.mask[k] = ~0u, sr.flags[k] = 0, sr.time[k] = 0.f;
+                            sr.dir_x[k] = L.x, sr.dir_y[k] = L.y, sr.dir_z[k] = L.z;
+                            sr.org_x[k] = sr.org_y[k] = sr.org_z[k] = 0.f;
+                            if (rh.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) continue;
+                            const glm::vec3 n =
+                                glm::normalize(glm::vec3(rh.hit.Ng_x[k], rh.hit.Ng_y[k], rh.hit.Ng_z[k]));
+                            if (glm::dot(n, L) <= 0.f) continue;
+                            const float t = rh.ray.tfar[k];
+                            sr.org_x[k] = b.ox[k] + t * b.dx[k] + n.x * lift;
+                            sr.org_y[k] = b.oy[k] + t * b.dy[k] + n.y * lift;
+                            sr.org_z[k] = b.oz[k] + t * b.dz[k] + n.z * lift;
+                            sv[k] = -1;
+                            any = true;
+                        }
+                        if (!any) continue;
+                        RTCIntersectContext sctx;
+                        rtcInitIntersectContext(&sctx);
+                        sctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+                        rtcOccluded16(sv, bare, &sctx, &sr);
+                    }
+            }
+        });
+        return bench::now() - t0;
+    };
     for (int threads : {1, 2}) {
         if (onlyThreads > 0 && threads != onlyThreads) continue;
         tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
@@ -93,6 +181,21 @@ int main(int argc, char** argv) {
             scene->render(look, noShadow, &st);
             return st.seconds;
         });
+        row = 7;  // Embree's packets alone: printed after the shaded rows
+        mr[7][ti] = rate(bareFrame);
+        if (only < 0) {
+            std::vector<double> ratios;
+            for (int k = 0; k < 7; ++k) {
+                render::RenderStats st;
+                scene->render(look, opt, &st);
+                ratios.push_back(bareFrame() / st.seconds);
+            }
+            std::sort(ratios.begin(), ratios.end());
+            pairedShading[ti][0] = ratios[3];
+            pairedShading[ti][1] = ratios.front();
+            pairedShading[ti][2] = ratios.back();
+        }
+        row = 2;
         // The grid marcher per frame: the grid prepared once (leaf table, crossed-cell boxes: like the
         // BVH, reported below), then the per-view depth pre-pass and the rays.
         double prepare = 0;
@@ -174,14 +277,15 @@ int main(int argc, char** argv) {
                 prepare);
         }
     }
-    const char* names[7] = {"Embree, shaded + shadows",
+    const char* names[8] = {"Embree, shaded + shadows",
                             "Embree, shaded, no shadows",
                             "isoforge grid marcher, per frame (prepared)",
                             "isoforge grid marcher, one call (prepare+frame)",
                             "isoforge field marcher (analytic sphere)",
                             "OpenVDB LevelSetRayIntersector",
-                            "vdb_render (whole process)"};
-    for (int i = 0; i < 7; ++i) std::printf("%-48s %10.2f %10.2f\n", names[i], mr[i][0], mr[i][1]);
+                            "vdb_render (whole process)",
+                            "Embree packets alone (primary + shadow)"};
+    for (int i : {0, 7, 1, 2, 3, 4, 5, 6}) std::printf("%-48s %10.2f %10.2f\n", names[i], mr[i][0], mr[i][1]);
     for (int ti : {0, 1})
         std::printf(
             "ratios at %d thread%s: grid marcher / LevelSetRayIntersector = %.2fx per frame, %.2fx in one call;"
@@ -194,6 +298,14 @@ int main(int argc, char** argv) {
                 "paired at %d thread%s (7 pairs of frames, grid marcher then intersector): %.2fx median, "
                 "%.2fx-%.2fx\n",
                 ti + 1, ti ? "s" : "", pairedRatio[ti][0], pairedRatio[ti][1], pairedRatio[ti][2]);
+    if (only < 0)
+        for (int ti : {0, 1})
+            std::printf(
+                "Embree shaded + shadows at %d thread%s, as a fraction of the packets alone (7 pairs of frames): "
+                "%.2f median, %.2f-%.2f\n",
+                ti + 1, ti ? "s" : "", pairedShading[ti][0], pairedShading[ti][1], pairedShading[ti][2]);
+    if (bare) rtcReleaseScene(bare);
+    if (device) rtcReleaseDevice(device);
     std::printf("1 -> 2 threads: Embree %.2fx, grid marcher %.2fx (per frame), field marcher %.2fx\n",
                 mr[0][1] / mr[0][0], mr[2][1] / mr[2][0], mr[4][1] / mr[4][0]);
     return 0;
