@@ -9,6 +9,9 @@
 #include <limits>
 #include <vector>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -345,6 +348,28 @@ struct SampleResult {
     float id = 0.f;
 };
 
+/// Four samples' colours and coverage (a row of a block) to a 64-byte aligned line of a frame's
+/// colour buffer: streaming stores where the target has them (the frame is not read while it is
+/// rendered, so fetching its lines into the cache first would be wasted), then finishLines() before
+/// the frame is handed on.
+inline void writeLine(float* line, const SampleResult* r) {
+#if defined(__SSE2__)
+    for (int i = 0; i < 4; ++i)
+        _mm_stream_ps(line + 4 * i, _mm_setr_ps(r[i].color.x, r[i].color.y, r[i].color.z, r[i].hit ? 1.f : 0.f));
+#else
+    for (int i = 0; i < 4; ++i) {
+        line[4 * i] = r[i].color.x, line[4 * i + 1] = r[i].color.y, line[4 * i + 2] = r[i].color.z;
+        line[4 * i + 3] = r[i].hit ? 1.f : 0.f;
+    }
+#endif
+}
+/// Orders the streaming stores of writeLine before what follows (other threads then see them).
+inline void finishLines() {
+#if defined(__SSE2__)
+    _mm_sfence();
+#endif
+}
+
 /// The tile loop all renderers share: TBB over 16x16 tiles, each cut into 4x4 blocks; per block and
 /// sample index, `traceBlock(rays, count, pixelIndices, sampleIndex, yPixels, results)` traces up to
 /// 16 camera samples at once (a RayBlock: Embree packets), filling `results`. AOVs come from the
@@ -364,6 +389,10 @@ Frame renderBlocks(const Look& look, const RenderOptions& o, TraceBlock&& traceB
     const auto pattern = samplePattern(o.spp);
     const int tilesX = (o.width + kTile - 1) / kTile, tilesY = (o.height + kTile - 1) / kTile;
     const bool anyAov = o.depth || o.normal || o.objectId;
+    // Rows of 4 pixels from a column multiple of 4 are whole cache lines when rows are whole lines.
+    const bool wholeLines =
+        o.width % 4 == 0 &&
+        reinterpret_cast<std::uintptr_t>(f.color.data()) % UninitializedAllocator<glm::vec4>::kAlignment == 0;
     std::atomic<std::uint64_t> hits{0};
     std::atomic<std::size_t> tilesDone{0};
     if (o.progress) o.progress->begin("rendering");
@@ -400,10 +429,16 @@ Frame renderBlocks(const Look& look, const RenderOptions& o, TraceBlock&& traceB
                         rays.block(blockX, blockY, blockRays);
                         traceBlock(blockRays, n, blockPix, s, blockY, results);
                         if (pattern.size() == 1) {  // the colour is the sample's
-                            for (int k = 0; k < n; ++k) {
-                                f.color[blockPix[k]] = glm::vec4(results[k].color, results[k].hit ? 1.f : 0.f);
-                                localHits += results[k].hit;
+                            if (n == 16 && wholeLines) {
+                                // Each row of the block is one aligned cache line of the frame: written
+                                // by streaming stores, without reading the line first.
+                                for (int row = 0; row < 4; ++row)
+                                    writeLine(&f.color[blockPix[4 * row]].x, &results[4 * row]);
+                            } else {
+                                for (int k = 0; k < n; ++k)
+                                    f.color[blockPix[k]] = glm::vec4(results[k].color, results[k].hit ? 1.f : 0.f);
                             }
+                            for (int k = 0; k < n; ++k) localHits += results[k].hit;
                         } else {
                             for (int k = 0; k < n; ++k) {
                                 if (s == 0) sum[k] = glm::vec3(0.f), coverage[k] = 0.f;
@@ -429,6 +464,7 @@ Frame renderBlocks(const Look& look, const RenderOptions& o, TraceBlock&& traceB
                 }
             if (o.progress) o.progress->update(++tilesDone, static_cast<std::size_t>(tilesX * tilesY));
         }
+        finishLines();
         hits += localHits;
     });
     if (o.progress) o.progress->end();
