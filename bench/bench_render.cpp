@@ -1,14 +1,15 @@
 // Primary-ray throughput at 1024x1024, 1 and 2 threads, side by side on one surface:
 //   Embree path (a ~1M-triangle mesh of the sphere, shaded, one light, hard shadows), and Embree's
 //   packets alone on the same rays (primary and shadow packets, no shading: what the shaded path
-//   would reach if shading cost nothing; also measured in 7 alternating pairs of frames),
+//   would reach if shading cost nothing; also measured in 7 alternating pairs of frames; and the
+//   primary packets alone, the "bare rtcIntersect16"),
 //   direct grid marcher (the level set itself: per frame on a PreparedGrid, and as one call that
 //   prepares too), direct field marcher (the analytic sphere),
 //   OpenVDB's LevelSetRayIntersector driven over the same image and camera (hits and normals only),
 //   and vdb_render as a whole process (read, render, write; -shader diffuse).
 // The grid marcher / intersector ratio is also measured in 7 alternating pairs of frames per thread
 // count (both then see the same state of a machine whose speed drifts).
-// Usage: bench_render [--quick] [--only N] [--threads T]   (for profiling: row N = 0..7 alone, T threads alone)
+// Usage: bench_render [--quick] [--only N] [--threads T]   (for profiling: row N = 0..8 alone, T threads alone)
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
@@ -49,7 +50,7 @@ int main(int argc, char** argv) {
     volume::MeshingOptions mo;
     mo.normals = true;
     // The mesh is only needed by the Embree rows (skipped when profiling another one).
-    const mesh::TriMesh m = only <= 1 || only == 7 ? volume::extractIsosurface(*grid, mo) : mesh::TriMesh{};
+    const mesh::TriMesh m = only <= 1 || only >= 7 ? volume::extractIsosurface(*grid, mo) : mesh::TriMesh{};
     const auto sphere = implicit::makeSphere(radius);
 
     render::Look look;
@@ -64,12 +65,12 @@ int main(int argc, char** argv) {
                 size, size, radius, radius / voxel, m.triangleCount());
     std::printf("%-48s %10s %10s\n", "", "1 thread", "2 threads");
 
-    double mr[8][2] = {};
+    double mr[9][2] = {};
     double pairedRatio[2][3] = {};    // median, lowest, highest of 7 pairs
     double pairedShading[2][3] = {};  // shaded Embree frame time / bare packets frame time, 7 pairs
     // Embree's packets alone: the renderer's 4x4 blocks, primary packets, then a shadow packet of the
     // lanes facing the light, started as far off the surface as the renderer starts them.
-    RTCDevice device = only <= 1 || only == 7 ? rtcNewDevice(nullptr) : nullptr;
+    RTCDevice device = only <= 1 || only >= 7 ? rtcNewDevice(nullptr) : nullptr;
     RTCScene bare = nullptr;
     float lift = 0.f;
     if (device) {
@@ -92,7 +93,7 @@ int main(int argc, char** argv) {
                      glm::length(m.positions[t.x] - m.positions[t.z]);
         lift = float(0.25 * edges / (3.0 * double(m.triangles.size())));
     }
-    auto bareFrame = [&] {
+    auto bareFrame = [&](bool shadows) {
         const double t0 = bench::now();
         const render::detail::RayGenerator gen(look.camera, size, size);
         const glm::vec3 L = -glm::normalize(look.lights[0].vector);
@@ -141,7 +142,7 @@ int main(int argc, char** argv) {
                             sv[k] = -1;
                             any = true;
                         }
-                        if (!any) continue;
+                        if (!any || !shadows) continue;
                         RTCIntersectContext sctx;
                         rtcInitIntersectContext(&sctx);
                         sctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
@@ -182,13 +183,15 @@ int main(int argc, char** argv) {
             return st.seconds;
         });
         row = 7;  // Embree's packets alone: printed after the shaded rows
-        mr[7][ti] = rate(bareFrame);
+        mr[7][ti] = rate([&] { return bareFrame(true); });
+        row = 8;
+        mr[8][ti] = rate([&] { return bareFrame(false); });
         if (only < 0) {
             std::vector<double> ratios;
             for (int k = 0; k < 7; ++k) {
                 render::RenderStats st;
                 scene->render(look, opt, &st);
-                ratios.push_back(bareFrame() / st.seconds);
+                ratios.push_back(bareFrame(true) / st.seconds);
             }
             std::sort(ratios.begin(), ratios.end());
             pairedShading[ti][0] = ratios[3];
@@ -277,15 +280,16 @@ int main(int argc, char** argv) {
                 prepare);
         }
     }
-    const char* names[8] = {"Embree, shaded + shadows",
+    const char* names[9] = {"Embree, shaded + shadows",
                             "Embree, shaded, no shadows",
                             "isoforge grid marcher, per frame (prepared)",
                             "isoforge grid marcher, one call (prepare+frame)",
                             "isoforge field marcher (analytic sphere)",
                             "OpenVDB LevelSetRayIntersector",
                             "vdb_render (whole process)",
-                            "Embree packets alone (primary + shadow)"};
-    for (int i : {0, 7, 1, 2, 3, 4, 5, 6}) std::printf("%-48s %10.2f %10.2f\n", names[i], mr[i][0], mr[i][1]);
+                            "Embree packets alone (primary + shadow)",
+                            "Embree packets alone (primary only)"};
+    for (int i : {0, 7, 1, 8, 2, 3, 4, 5, 6}) std::printf("%-48s %10.2f %10.2f\n", names[i], mr[i][0], mr[i][1]);
     for (int ti : {0, 1})
         std::printf(
             "ratios at %d thread%s: grid marcher / LevelSetRayIntersector = %.2fx per frame, %.2fx in one call;"
