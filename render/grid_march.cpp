@@ -891,9 +891,11 @@ Frame PreparedGrid::render(const Look& look, const RenderOptions& o, RenderStats
             // the block's cache misses then overlap instead of each ray waiting for its own.
             Line irays[16];
             for (int k = 0; k < n; ++k) {
+                const bool covered = !span.empty() && span[pix[k]].near <= span[pix[k]].far;
+                if (!covered && !span.empty()) continue;  // background: trace() needs no index ray
                 irays[k] = toIndexRay(glm::vec3(rays.ox[k], rays.oy[k], rays.oz[k]),
                                       glm::vec3(rays.dx[k], rays.dy[k], rays.dz[k]));
-                if (span.empty() || !(span[pix[k]].near <= span[pix[k]].far)) continue;
+                if (!covered) continue;
                 const double perDepth =
                     1.0 /
                     double(rays.dx[k] * gen.forward().x + rays.dy[k] * gen.forward().y + rays.dz[k] * gen.forward().z) /
