@@ -828,9 +828,9 @@ Frame PreparedGrid::render(const Look& look, const RenderOptions& o, RenderStats
                     lanes->qx[k] = q.x, lanes->qy[k] = q.y, lanes->qz[k] = q.z;
                     lanes->setMaterial(k, albedo[static_cast<std::size_t>(early->layer)], L.material);
                     if (o.aoSamples > 0)
-                        lanes->ao[k] =
-                            detail::ambientOcclusion(n, o.aoSamples, static_cast<std::uint32_t>(pix * 64u + s * 16u),
-                                                     [&](const glm::vec3& d) { return !blocked(st, q, d, aoReach); });
+                        lanes->ao[k] = detail::ambientOcclusion(
+                            n, o.aoSamples, static_cast<std::uint32_t>(pix * 64u + s * 16u),
+                            [&](const glm::vec3& dir) { return !blocked(st, q, dir, aoReach); });
                     out.hit = true;
                     out.depth = tWorld;
                     out.normal = n;
