@@ -9,7 +9,9 @@ args=(-DCMAKE_BUILD_TYPE=Release)
 if [ "${1:-}" = "--sanitize" ]; then
   dir=build-asan
   args=(-DCMAKE_BUILD_TYPE=RelWithDebInfo -DISOFORGE_SANITIZE=ON -DISOFORGE_BUILD_BENCH=OFF)
-  export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:fast_unwind_on_malloc=0 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+  # The default (fast, frame-pointer) unwinder for malloc stacks: the slow one tripled every process's cost
+  # (1.4 s instead of 0.44 s for `isoforge --help`), and the suppressions below match with either.
+  export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
   export LSAN_OPTIONS="suppressions=$PWD/tests/lsan.supp:print_suppressions=0"
 fi
 if [ "${CI:-}" = true ]; then args+=(-DISOFORGE_WERROR=ON); fi
