@@ -1,5 +1,6 @@
 // isoforge render: scenes, fields, grids and meshes to images, through Embree (on a mesh) or by
 // direct ray marching (no mesh).
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -368,17 +369,24 @@ void addRenderCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
             if (!g.quiet) {
                 std::size_t tris = 0;
                 for (const auto& m : meshes) tris += m.triangleCount();
+                // The frame's own time and ray rate; building the BVH (or a grid's tables) apart, since
+                // it depends on the geometry, not on the image.
+                const double frameSeconds = std::max(st.seconds - st.setupSeconds, 1e-9);
+                char setup[64] = "";
+                if (st.setupSeconds > 0)
+                    std::snprintf(setup, sizeof setup, "%s %.2f s, ", method == "mesh" ? "BVH" : "preparation",
+                                  st.setupSeconds);
                 std::printf(
-                    "rendered %s (%s%s) at %dx%d, %d spp: %.2f Mrays/s, %s of %s pixels hit, %.2f s "
-                    "(%.2f s total) -> %s\n",
+                    "rendered %s (%s%s) at %dx%d, %d spp: %s of %s pixels hit; %sframe %.2f s (%.2f Mrays/s); "
+                    "%.2f s total -> %s\n",
                     what.c_str(),
                     method == "mesh"     ? "Embree, "
                     : method == "volume" ? "volume rendering"
                     : method == "voxels" ? "voxels"
                                          : "ray marching",
                     method == "mesh" ? (withCommas(tris) + " triangles").c_str() : "", opt.width, opt.height, opt.spp,
-                    double(st.primaryRays) / st.seconds / 1e6, withCommas(st.hitPixels).c_str(),
-                    withCommas(frame.pixels()).c_str(), st.seconds,
+                    withCommas(st.hitPixels).c_str(), withCommas(frame.pixels()).c_str(), setup, frameSeconds,
+                    double(st.primaryRays) / frameSeconds / 1e6,
                     std::chrono::duration<double>(Clock::now() - t0).count(), a->output.c_str());
             }
             return 0;

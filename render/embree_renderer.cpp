@@ -188,8 +188,13 @@ Frame PreparedMeshes::render(const Look& look, const RenderOptions& o, RenderSta
             surf.position = ray.origin + rh.ray.tfar * ray.dir;
             glm::vec3 n = w * od.normals[tri.x] + u * od.normals[tri.y] + v * od.normals[tri.z];
             const float nl = glm::length(n);
-            n = nl > 0 ? n / nl : glm::normalize(glm::vec3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z));
-            if (glm::dot(n, ray.dir) > 0) n = -n;  // seen from behind: shade the side we see
+            const glm::vec3 ng(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z);
+            n = nl > 0 ? n / nl : glm::normalize(ng);
+            // Seen from behind (by the triangle's own normal): shade the side we see. The smooth normal
+            // can still lean away from the viewer on a triangle that faces it (at creases): it is bent
+            // towards the viewer, not reversed (reversed, it shaded the pixel as if facing the floor).
+            if (glm::dot(ng, ray.dir) > 0) n = -n;
+            n = detail::bendTowardsViewer(n, ray.dir);
             surf.normal = n;
             surf.albedo =
                 od.vertexColors
@@ -289,7 +294,8 @@ Frame PreparedMeshes::render(const Look& look, const RenderOptions& o, RenderSta
         }
         if (opaqueCount == 0) return;
 
-        // Smooth normals (facing the viewer), hit positions and the origins of secondary rays.
+        // Smooth normals (reversed on triangles seen from behind), hit positions and the origins of
+        // secondary rays.
         alignas(64) float len[16];
         for (int k = 0; k < 16; ++k) {
             const float u = rh.hit.u[k], v = rh.hit.v[k], w = 1.f - u - v;
@@ -300,8 +306,13 @@ Frame PreparedMeshes::render(const Look& look, const RenderOptions& o, RenderSta
             len[k] = l;
             const float d = l > 0.f ? l : 1.f;
             x /= d, y /= d, z /= d;
-            const float flip = x * rays.dx[k] + y * rays.dy[k] + z * rays.dz[k] > 0.f ? -1.f : 1.f;
-            h.nx[k] = x * flip, h.ny[k] = y * flip, h.nz[k] = z * flip;
+            // Seen from behind by the triangle's own normal, not the smooth one (see trace above).
+            const float flip =
+                rh.hit.Ng_x[k] * rays.dx[k] + rh.hit.Ng_y[k] * rays.dy[k] + rh.hit.Ng_z[k] * rays.dz[k] > 0.f ? -1.f
+                                                                                                              : 1.f;
+            x *= flip, y *= flip, z *= flip;
+            detail::bendTowardsViewer(x, y, z, rays.dx[k], rays.dy[k], rays.dz[k]);
+            h.nx[k] = x, h.ny[k] = y, h.nz[k] = z;
         }
         for (int k = 0; k < 16; ++k)
             if (h.on[k] && !(len[k] > 0.f)) {  // corner normals cancel: the geometric normal

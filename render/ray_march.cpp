@@ -116,14 +116,21 @@ private:
 
 }  // namespace
 
-Frame marchField(const implicit::FieldPtr& field, const implicit::Box3& region, const Look& look,
+Frame marchField(const implicit::FieldPtr& field, const implicit::Box3& bounds, const Look& look,
                  const RenderOptions& o, RenderStats* stats) {
     const auto t0 = std::chrono::steady_clock::now();
     if (o.width <= 0 || o.height <= 0) throw std::invalid_argument("image size must be positive");
     const detail::RayGenerator rays(look.camera, o.width, o.height);
     const detail::LightSet lights(look);
     const detail::Background background(look);
-    const float sceneSize = region.isEmpty() || !region.isBounded() ? 1.f : glm::length(region.size());
+    const bool finite = !bounds.isEmpty() && bounds.isBounded();
+    const float sceneSize = finite ? glm::length(bounds.size()) : 1.f;
+    // Rays are clipped to a box a little larger than the bounds: a surface may lie on its own bounds
+    // (a box's faces are), and a ray clipped exactly there would start on the surface, on whichever
+    // side rounding puts it; one that starts inside finds the far side of the solid as its first hit.
+    const glm::vec3 extent = glm::max(glm::abs(bounds.min), glm::abs(bounds.max));
+    const float maxCoord = finite ? std::max({extent.x, extent.y, extent.z}) : 0.f;
+    const implicit::Box3 region = finite ? bounds.expanded(1e-3f * sceneSize + 1e-5f * maxCoord) : bounds;
     const float eps = 1e-5f * sceneSize;
     const float aoReach = o.aoDistance > 0 ? o.aoDistance : 0.05f * sceneSize;
     const Marcher march(*field, rays, eps);
@@ -163,12 +170,22 @@ Frame marchField(const implicit::FieldPtr& field, const implicit::Box3& region, 
     const implicit::Material plain;
     const bool inside = !region.isEmpty() && field->value(look.camera.eye) < 0.f;
 
+    // Shadows come from opaque surfaces only: translucent layers let light through, as on the
+    // Embree path (whose shadow rays see only the opaque objects).
     auto blocked = [&](const glm::vec3& origin, const glm::vec3& d, float tmax) {
         const detail::Ray r{origin, d};
         const auto span = clipRay(r, region);
         if (!span) return false;
         const float tb = std::min(span->second, tmax);
-        return march.first(r, span->first, tb).has_value();
+        float t = span->first;
+        for (int crossing = 0; crossing < 64; ++crossing) {
+            const auto hit = march.first(r, t, tb);
+            if (!hit) return false;
+            const implicit::Material* m = field->materialAt(r.origin + *hit * r.dir);
+            if (!m || m->color.a >= 1.f) return true;
+            t = *hit + 2.f * std::max(eps, 0.25f * rays.pixelSize(*hit));  // past the translucent surface
+        }
+        return false;
     };
     auto trace = [&](const detail::Ray& ray, std::size_t pix, std::size_t s, float py) {
         const std::size_t px = pix % std::size_t(o.width), py0 = pix / std::size_t(o.width);
