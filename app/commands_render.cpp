@@ -151,6 +151,9 @@ void addRenderCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
     cmd->add_flag("--no-shadows", a->noShadows, "No shadow rays");
     cmd->add_option("--ao", a->ao, "Ambient-occlusion rays per hit (default 0: off)")->check(CLI::Range(0, 256));
     addFieldOptions(cmd, a->field, true);
+    // Images want finer meshes than files: the mesh path samples at 512 unless told otherwise.
+    cmd->get_option("--resolution")
+        ->description("Voxels along the longest side of the box when meshing (--method mesh; default 512)");
     auto* med = cmd->add_option_group("Medical volumes (NIfTI, NRRD, MetaImage, DICOM, raw)");
     med->add_option("--mip", a->mip, "Maximum intensity projection along axial, coronal or sagittal")
         ->check(CLI::IsMember({"axial", "coronal", "sagittal"}));

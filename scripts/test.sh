@@ -8,7 +8,10 @@ dir=build
 args=(-DCMAKE_BUILD_TYPE=Release)
 if [ "${1:-}" = "--sanitize" ]; then
   dir=build-asan
-  args=(-DCMAKE_BUILD_TYPE=RelWithDebInfo -DISOFORGE_SANITIZE=ON -DISOFORGE_BUILD_BENCH=OFF)
+  # -O1 -g1 (line tables: all that sanitizer stack traces need) instead of RelWithDebInfo's -O2 -g compiles
+  # the heaviest files in half the time (render/grid_march.cpp 98 -> 48 s, tests/test_renderers.cpp 85 -> 47 s).
+  args=(-DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" -DISOFORGE_SANITIZE=ON
+        -DISOFORGE_BUILD_BENCH=OFF)
   # The default (fast, frame-pointer) unwinder for malloc stacks: the slow one tripled every process's cost
   # (1.4 s instead of 0.44 s for `isoforge --help`), and the suppressions below match with either.
   export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
