@@ -43,6 +43,7 @@ struct Sphere {
 }  // namespace
 
 int main(int argc, char** argv) {
+    bench::checkArguments(argc, argv, "Usage: bench_csg [--quick]", {"--quick"});
     volume::initializeOpenVdb();
     const bool quick = argc > 1 && std::strcmp(argv[1], "--quick") == 0;
     const float voxel = 0.004f;

@@ -23,6 +23,7 @@
 using namespace isoforge;
 
 int main(int argc, char** argv) {
+    bench::checkArguments(argc, argv, "Usage: bench_implicit [--quick] [model.vm]", {"--quick"}, {}, true);
     volume::initializeOpenVdb();
     bool quick = false;
     std::string model = std::string(ISOFORGE_SOURCE_DIR) + "/data/text.vm";

@@ -45,6 +45,7 @@ double readFloor(const openvdb::FloatGrid& grid) {
 }  // namespace
 
 int main(int argc, char** argv) {
+    bench::checkArguments(argc, argv, "Usage: bench_marching_cubes [--quick] [smoke.vdb]", {"--quick"}, {}, true);
     volume::initializeOpenVdb();
     bool quick = false;
     std::string smokePath = std::string(ISOFORGE_SHARED_DATA) + "/volumes/openvdb-samples/smoke.vdb";

@@ -18,6 +18,7 @@
 using namespace isoforge;
 
 int main(int argc, char** argv) {
+    bench::checkArguments(argc, argv, "Usage: bench_medical [--quick]", {"--quick"});
     volume::initializeOpenVdb();
     const bool quick = argc > 1 && std::strcmp(argv[1], "--quick") == 0;
     const std::string vols = std::string(ISOFORGE_SHARED_DATA) + "/volumes/";

@@ -23,6 +23,7 @@
 using namespace isoforge;
 
 int main(int argc, char** argv) {
+    bench::checkArguments(argc, argv, "Usage: bench_mesh_field [--quick]", {"--quick"});
     volume::initializeOpenVdb();
     const bool quick = argc > 1 && std::strcmp(argv[1], "--quick") == 0;
     const std::filesystem::path shared = ISOFORGE_SHARED_DATA;

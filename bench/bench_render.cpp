@@ -36,6 +36,10 @@
 using namespace isoforge;
 
 int main(int argc, char** argv) {
+    bench::checkArguments(argc, argv,
+                          "Usage: bench_render [--quick] [--only N] [--threads T]\n  --quick    512x512 instead of "
+                          "1024x1024\n  --only N   row N (0..8) alone, for profiling\n  --threads T  T threads alone",
+                          {"--quick"}, {"--only", "--threads"});
     volume::initializeOpenVdb();
     bool quick = false;
     int only = -1, onlyThreads = 0;
@@ -290,19 +294,22 @@ int main(int argc, char** argv) {
                             "Embree packets alone (primary + shadow)",
                             "Embree packets alone (primary only)"};
     for (int i : {0, 7, 1, 8, 2, 3, 4, 5, 6}) std::printf("%-48s %10.2f %10.2f\n", names[i], mr[i][0], mr[i][1]);
-    for (int ti : {0, 1})
-        std::printf(
-            "ratios at %d thread%s: grid marcher / LevelSetRayIntersector = %.2fx per frame, %.2fx in one call;"
-            " grid marcher / vdb_render = %.2fx; Embree+shadows / LevelSetRayIntersector = %.2fx\n",
-            ti + 1, ti ? "s" : "", mr[2][ti] / mr[5][ti], mr[3][ti] / mr[5][ti], mr[3][ti] / mr[6][ti],
-            mr[0][ti] / mr[5][ti]);
-    if (only < 0)
+    // Ratios only where every row ran at both thread counts (--only and --threads are for profiling).
+    const bool full = only < 0 && onlyThreads == 0;
+    if (full)
+        for (int ti : {0, 1})
+            std::printf(
+                "ratios at %d thread%s: grid marcher / LevelSetRayIntersector = %.2fx per frame, %.2fx in one call;"
+                " grid marcher / vdb_render = %.2fx; Embree+shadows / LevelSetRayIntersector = %.2fx\n",
+                ti + 1, ti ? "s" : "", mr[2][ti] / mr[5][ti], mr[3][ti] / mr[5][ti], mr[3][ti] / mr[6][ti],
+                mr[0][ti] / mr[5][ti]);
+    if (full)
         for (int ti : {0, 1})
             std::printf(
                 "paired at %d thread%s (7 pairs of frames, grid marcher then intersector): %.2fx median, "
                 "%.2fx-%.2fx\n",
                 ti + 1, ti ? "s" : "", pairedRatio[ti][0], pairedRatio[ti][1], pairedRatio[ti][2]);
-    if (only < 0)
+    if (full)
         for (int ti : {0, 1})
             std::printf(
                 "Embree shaded + shadows at %d thread%s, as a fraction of the packets alone (7 pairs of frames): "
@@ -310,7 +317,8 @@ int main(int argc, char** argv) {
                 ti + 1, ti ? "s" : "", pairedShading[ti][0], pairedShading[ti][1], pairedShading[ti][2]);
     if (bare) rtcReleaseScene(bare);
     if (device) rtcReleaseDevice(device);
-    std::printf("1 -> 2 threads: Embree %.2fx, grid marcher %.2fx (per frame), field marcher %.2fx\n",
-                mr[0][1] / mr[0][0], mr[2][1] / mr[2][0], mr[4][1] / mr[4][0]);
+    if (full)
+        std::printf("1 -> 2 threads: Embree %.2fx, grid marcher %.2fx (per frame), field marcher %.2fx\n",
+                    mr[0][1] / mr[0][0], mr[2][1] / mr[2][0], mr[4][1] / mr[4][0]);
     return 0;
 }

@@ -3,11 +3,40 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
+#include <initializer_list>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace isoforge::bench {
+
+/// A benchmark's command line: -h/--help prints `usage` and exits 0. Anything else that is not one
+/// of `flags`, one of `valued` (which take the next argument) or, where `positional`, one input file,
+/// is refused with the usage and exit status 2: a mistyped option must not start minutes of work.
+inline void checkArguments(int argc, char** argv, const char* usage, std::initializer_list<std::string_view> flags,
+                           std::initializer_list<std::string_view> valued = {}, bool positional = false) {
+    int files = 0;
+    for (int i = 1; i < argc; ++i) {
+        const std::string_view a = argv[i];
+        auto among = [&](std::initializer_list<std::string_view> l) {
+            return std::find(l.begin(), l.end(), a) != l.end();
+        };
+        if (a == "-h" || a == "--help") {
+            std::printf("%s\n", usage);
+            std::exit(0);
+        }
+        if (among(flags)) continue;
+        if (among(valued) && i + 1 < argc) {
+            ++i;
+            continue;
+        }
+        if (positional && !a.starts_with("-") && files++ == 0) continue;
+        std::fprintf(stderr, "%s: unexpected argument '%s'\n%s\n", argv[0], argv[i], usage);
+        std::exit(2);
+    }
+}
 
 inline double now() {
     return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
