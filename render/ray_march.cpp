@@ -133,12 +133,25 @@ Frame marchField(const implicit::FieldPtr& field, const implicit::Box3& bounds, 
     const implicit::Box3 region = finite ? bounds.expanded(1e-3f * sceneSize + 1e-5f * maxCoord) : bounds;
     const float eps = 1e-5f * sceneSize;
     const float aoReach = o.aoDistance > 0 ? o.aoDistance : 0.05f * sceneSize;
-    const Marcher march(*field, rays, eps);
     // Per 16x16 tile: the field simplified to the box its rays cross (a thin frustum through the
-    // scene), so each tile's rays evaluate only the objects they can meet.
+    // scene), so each tile's rays evaluate only the objects they can meet; and simplified to the box
+    // that the secondary rays of the tile's hits can cross (shadowField).
     const int tilesX = (o.width + detail::kTile - 1) / detail::kTile;
     const int tilesY = (o.height + detail::kTile - 1) / detail::kTile;
     std::vector<implicit::FieldPtr> tileField(static_cast<std::size_t>(tilesX) * static_cast<std::size_t>(tilesY));
+    std::vector<implicit::FieldPtr> shadowField(tileField.size());
+    // Secondary rays start at most this far from a hit (half a pixel at the farthest point of the
+    // region, see `origin` below), and go no farther than the region's diagonal.
+    float farthest = 0.f;
+    if (finite)
+        for (int c = 0; c < 8; ++c)
+            farthest = std::max(farthest, glm::length(glm::vec3(c & 1 ? region.max.x : region.min.x,
+                                                                c & 2 ? region.max.y : region.min.y,
+                                                                c & 4 ? region.max.z : region.min.z) -
+                                                      look.camera.eye));
+    const float secondaryOffset = std::max(2.f * eps, 0.5f * rays.pixelSize(farthest));
+    const float secondaryMargin = 2.f * secondaryOffset + (o.aoSamples > 0 ? aoReach : 0.f);
+    const float across = finite ? glm::length(region.size()) : 0.f;
     tbb::parallel_for(std::size_t{0}, tileField.size(), [&](std::size_t k) {
         const int x0 = int(k % std::size_t(tilesX)) * detail::kTile, y0 = int(k / std::size_t(tilesX)) * detail::kTile;
         const float x1 = float(std::min(x0 + detail::kTile, o.width)),
@@ -166,22 +179,40 @@ Frame marchField(const implicit::FieldPtr& field, const implicit::Box3& bounds, 
         }
         box = box.intersect(region);
         tileField[k] = box.isEmpty() || !box.isBounded() ? field : implicit::simplified(field, box);
+        // The tile's hits lie in `box`; their shadow rays start within secondaryMargin of it and run
+        // towards a light: a directional one until they leave the region (the box swept along the
+        // direction, whose bounding box is that of the box and its far copy), a point light up to it.
+        shadowField[k] = field;
+        if (!box.isEmpty() && box.isBounded()) {
+            const implicit::Box3 from = box.expanded(secondaryMargin);
+            implicit::Box3 swept = from;
+            for (std::size_t i = 0; i < lights.size(); ++i)
+                if (lights[i].point) {
+                    swept = swept.unite(implicit::Box3{lights[i].vector, lights[i].vector});
+                } else {
+                    const glm::vec3 far = lights.towards(i, glm::vec3(0.f)) * across;
+                    swept = swept.unite(implicit::Box3{from.min + far, from.max + far});
+                }
+            swept = swept.intersect(region);
+            if (!swept.isEmpty()) shadowField[k] = implicit::simplified(field, swept);
+        }
     });
     const implicit::Material plain;
     const bool inside = !region.isEmpty() && field->value(look.camera.eye) < 0.f;
 
     // Shadows come from opaque surfaces only: translucent layers let light through, as on the
     // Embree path (whose shadow rays see only the opaque objects).
-    auto blocked = [&](const glm::vec3& origin, const glm::vec3& d, float tmax) {
+    auto blockedIn = [&](const implicit::Field& f, const glm::vec3& origin, const glm::vec3& d, float tmax) {
         const detail::Ray r{origin, d};
         const auto span = clipRay(r, region);
         if (!span) return false;
         const float tb = std::min(span->second, tmax);
+        const Marcher march(f, rays, eps);
         float t = span->first;
         for (int crossing = 0; crossing < 64; ++crossing) {
             const auto hit = march.first(r, t, tb);
             if (!hit) return false;
-            const implicit::Material* m = field->materialAt(r.origin + *hit * r.dir);
+            const implicit::Material* m = f.materialAt(r.origin + *hit * r.dir);
             if (!m || m->color.a >= 1.f) return true;
             t = *hit + 2.f * std::max(eps, 0.25f * rays.pixelSize(*hit));  // past the translucent surface
         }
@@ -189,7 +220,12 @@ Frame marchField(const implicit::FieldPtr& field, const implicit::Box3& bounds, 
     };
     auto trace = [&](const detail::Ray& ray, std::size_t pix, std::size_t s, float py) {
         const std::size_t px = pix % std::size_t(o.width), py0 = pix / std::size_t(o.width);
-        const implicit::FieldPtr& tf = tileField[(py0 / detail::kTile) * std::size_t(tilesX) + px / detail::kTile];
+        const std::size_t tile = (py0 / detail::kTile) * std::size_t(tilesX) + px / detail::kTile;
+        const implicit::FieldPtr& tf = tileField[tile];
+        const implicit::Field& sf = *shadowField[tile];
+        auto blocked = [&](const glm::vec3& origin, const glm::vec3& d, float tmax) {
+            return blockedIn(sf, origin, d, tmax);
+        };
         const Marcher tileMarch(*tf, rays, eps);
         detail::SampleResult out;
         glm::vec3 acc(0.f);

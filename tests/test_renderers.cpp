@@ -186,6 +186,66 @@ TEST(Renderers, TranslucentObjectsCastNoShadowOnEitherPath) {
     EXPECT_GE(iou(marched, cast), 0.995);
 }
 
+/// The field as it is, never simplified: the reference for the marcher's per-tile pruning.
+class Unpruned final : public implicit::Field {
+public:
+    explicit Unpruned(implicit::FieldPtr f) : f_(std::move(f)) {}
+    float value(const glm::vec3& p) const override { return f_->value(p); }
+    implicit::Interval bound(const implicit::Box3& b) const override { return f_->bound(b); }
+    implicit::Box3 bounds() const override { return f_->bounds(); }
+    glm::vec3 gradient(const glm::vec3& p) const override { return f_->gradient(p); }
+    bool isDistance() const override { return f_->isDistance(); }
+    std::string describe() const override { return f_->describe(); }
+    const implicit::Material* materialAt(const glm::vec3& p) const override { return f_->materialAt(p); }
+
+private:
+    implicit::FieldPtr f_;
+};
+
+TEST(Renderers, MarchedShadowsAreThoseOfTheWholeField) {
+    // Shadow and ambient-occlusion rays march the field simplified per tile to the tile's box swept
+    // towards the lights. A box too small would drop casters: compare with the field never simplified,
+    // under a directional and a point light, with and without ambient occlusion. The blobby makes the
+    // field non-distance (interval subdivision).
+    const csg::Scene s = csg::parseScene(R"(
+        color("white") box(size = [10, 8, 0.4], center = true);
+        translate([-2, 1, 1.2]) color("steelblue") cube(1.6, center = true);
+        translate([2, -1, 0.3]) color("gold") blobby(threshold = 0.5) {
+            ball(center = [0, 0, 0.8], r = 1.6);
+            ball(center = [0.6, 0.2, 1.4], r = 1.3);
+        }
+        translate([0, -2.5, 1.5]) color([0.5, 0.8, 0.95, 0.5]) sphere(0.8);
+    )",
+                                         "shadows.isf");
+    const implicit::Box3 box = s.root->bounds();
+    // Looking straight down, a tile's own box is a thin column: the casters of the long shadows that
+    // the low lights throw across the floor are in other tiles' columns, reached only by the sweep.
+    render::Look look;
+    look.camera = render::frameBox(box, 4.f / 3.f, glm::vec3(0.f, 0.f, -1.f));
+    look.camera.up = glm::vec3(0.f, 1.f, 0.f);
+    look.lights.push_back({false, glm::vec3(1.f, 0.3f, -0.45f), glm::vec3(1.f), 0.8f});
+    look.lights.push_back({true, glm::vec3(-4.5f, -3.5f, 2.f), glm::vec3(1.f), 0.6f});
+    const auto whole = std::make_shared<Unpruned>(s.root);
+    for (const int ao : {0, 4}) {
+        auto o = small(160, 120);
+        o.aoSamples = ao;
+        const render::Frame pruned = render::marchField(s.root, box, look, o);
+        const render::Frame reference = render::marchField(whole, box, look, o);
+        std::size_t differ = 0;
+        for (std::size_t i = 0; i < pruned.pixels(); ++i) {
+            const glm::vec4 d = glm::abs(pruned.color[i] - reference.color[i]);
+            differ += std::max({d.r, d.g, d.b, d.a}) > 0.01f;
+        }
+        EXPECT_EQ(differ, 0u) << "ambient-occlusion rays " << ao;
+        // The shadows are there to be dropped: without shadow rays, many pixels are brighter.
+        o.shadows = false;
+        const render::Frame unshadowed = render::marchField(s.root, box, look, o);
+        std::size_t shadowed = 0;
+        for (std::size_t i = 0; i < pruned.pixels(); ++i) shadowed += unshadowed.color[i].r - pruned.color[i].r > 0.05f;
+        EXPECT_GT(shadowed, pruned.pixels() / 20) << "ambient-occlusion rays " << ao;
+    }
+}
+
 TEST(Renderers, RayMarchingFindsSurfacesLyingOnTheirBounds) {
     // A rounded slab's faces are its bounds, and the CLI passes the bounds as the region: rays that
     // started exactly there could start inside (by rounding) and find the slab's far side instead.
