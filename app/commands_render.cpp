@@ -5,10 +5,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
-#include <map>
 #include <sstream>
 
-#include <tbb/parallel_for.h>
 #include <glm/geometric.hpp>
 
 #include "app/commands.h"
@@ -56,42 +54,6 @@ render::IsoLayer parseIsoLayer(const std::string& text) {
     if (!(l.material.color.a > 0.f && l.material.color.a <= 1.f))
         throw CLI::ValidationError("--iso", "opacity must be in (0, 1]");
     return l;
-}
-
-/// Splits a scene's mesh into one object per material (materialAt at each triangle's centre).
-std::vector<mesh::TriMesh> splitByMaterial(const mesh::TriMesh& m, const implicit::Field& field,
-                                           std::vector<implicit::Material>& materials) {
-    std::vector<const implicit::Material*> tag(m.triangles.size());
-    tbb::parallel_for(std::size_t{0}, m.triangles.size(), [&](std::size_t i) {
-        const auto& t = m.triangles[i];
-        tag[i] = field.materialAt((m.positions[t.x] + m.positions[t.y] + m.positions[t.z]) / 3.f);
-    });
-    // Materials in order of first use: deterministic.
-    std::map<const implicit::Material*, std::size_t> slot;
-    std::vector<mesh::TriMesh> out;
-    std::vector<std::vector<std::uint32_t>> remap;
-    for (std::size_t i = 0; i < m.triangles.size(); ++i) {
-        auto [it, added] = slot.try_emplace(tag[i], out.size());
-        if (added) {
-            out.emplace_back();
-            remap.emplace_back(m.positions.size(), UINT32_MAX);
-            materials.push_back(tag[i] ? *tag[i] : implicit::Material{});
-        }
-        mesh::TriMesh& o = out[it->second];
-        auto& r = remap[it->second];
-        glm::uvec3 t;
-        for (int k = 0; k < 3; ++k) {
-            const std::uint32_t v = m.triangles[i][k];
-            if (r[v] == UINT32_MAX) {
-                r[v] = static_cast<std::uint32_t>(o.positions.size());
-                o.positions.push_back(m.positions[v]);
-                if (!m.normals.empty()) o.normals.push_back(m.normals[v]);
-            }
-            t[k] = r[v];
-        }
-        o.triangles.push_back(t);
-    }
-    return out;
 }
 
 std::pair<int, int> parseSize(const std::string& s) {
@@ -275,7 +237,7 @@ void addRenderCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                     mo.normals = true;
                     mo.progress = prog;
                     const mesh::TriMesh m = volume::extractIsosurface(*sampled, mo);
-                    meshes = splitByMaterial(m, *field, materials);
+                    meshes = render::splitByMaterial(m, *field, materials);
                 }
             } else if (method == "volume" || method == "voxels") {
                 // rendered from the dense volume below

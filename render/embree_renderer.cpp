@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <map>
 #include <stdexcept>
 
 #include <embree3/rtcore.h>
@@ -88,6 +89,41 @@ struct PreparedMeshes::Impl {
     implicit::Box3 box;
     double setupSeconds = 0;
 };
+
+std::vector<mesh::TriMesh> splitByMaterial(const mesh::TriMesh& m, const implicit::Field& field,
+                                           std::vector<implicit::Material>& materials) {
+    std::vector<const implicit::Material*> tag(m.triangles.size());
+    tbb::parallel_for(std::size_t{0}, m.triangles.size(), [&](std::size_t i) {
+        const auto& t = m.triangles[i];
+        tag[i] = field.materialAt((m.positions[t.x] + m.positions[t.y] + m.positions[t.z]) / 3.f);
+    });
+    // Materials in order of first use: deterministic.
+    std::map<const implicit::Material*, std::size_t> slot;
+    std::vector<mesh::TriMesh> out;
+    std::vector<std::vector<std::uint32_t>> remap;
+    for (std::size_t i = 0; i < m.triangles.size(); ++i) {
+        auto [it, added] = slot.try_emplace(tag[i], out.size());
+        if (added) {
+            out.emplace_back();
+            remap.emplace_back(m.positions.size(), UINT32_MAX);
+            materials.push_back(tag[i] ? *tag[i] : implicit::Material{});
+        }
+        mesh::TriMesh& o = out[it->second];
+        auto& r = remap[it->second];
+        glm::uvec3 t;
+        for (int k = 0; k < 3; ++k) {
+            const std::uint32_t v = m.triangles[i][k];
+            if (r[v] == UINT32_MAX) {
+                r[v] = static_cast<std::uint32_t>(o.positions.size());
+                o.positions.push_back(m.positions[v]);
+                if (!m.normals.empty()) o.normals.push_back(m.normals[v]);
+            }
+            t[k] = r[v];
+        }
+        o.triangles.push_back(t);
+    }
+    return out;
+}
 
 PreparedMeshes::PreparedMeshes(const std::vector<MeshObject>& objects) : impl_(std::make_unique<Impl>()) {
     const auto t0 = std::chrono::steady_clock::now();

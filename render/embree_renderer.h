@@ -19,6 +19,12 @@ struct MeshObject {
     bool vertexColors = true;             ///< use mesh->colors (sRGB) where present
 };
 
+/// A scene's mesh split into one mesh per material (the field's materialAt at each triangle's centre),
+/// as Embree objects want them; `materials` gets one entry per mesh, in order of first use
+/// (deterministic); triangles without a material get the default one.
+std::vector<mesh::TriMesh> splitByMaterial(const mesh::TriMesh& m, const implicit::Field& field,
+                                           std::vector<implicit::Material>& materials);
+
 /// The objects' Embree scene (BVH), vertex normals and materials, built once for any number of
 /// views (a turntable, AOV passes). The meshes are not owned and must outlive it.
 /// @throw std::runtime_error if Embree cannot be initialized.

@@ -140,15 +140,19 @@ Frame marchField(const implicit::FieldPtr& field, const implicit::Box3& bounds, 
     const int tilesY = (o.height + detail::kTile - 1) / detail::kTile;
     std::vector<implicit::FieldPtr> tileField(static_cast<std::size_t>(tilesX) * static_cast<std::size_t>(tilesY));
     std::vector<implicit::FieldPtr> shadowField(tileField.size());
+    // The region's nearest and farthest depths along the view, and its farthest point from the eye.
+    float dmin = kInf, dmax = 0.f, farthest = 0.f;
+    for (int c = 0; c < 8; ++c) {
+        const glm::vec3 q(c & 1 ? region.max.x : region.min.x, c & 2 ? region.max.y : region.min.y,
+                          c & 4 ? region.max.z : region.min.z);
+        const float d = glm::dot(q - look.camera.eye, rays.forward());
+        dmin = std::min(dmin, d);
+        dmax = std::max(dmax, d);
+        if (finite) farthest = std::max(farthest, glm::length(q - look.camera.eye));
+    }
+    dmin = std::max(dmin, 0.f);
     // Secondary rays start at most this far from a hit (half a pixel at the farthest point of the
     // region, see `origin` below), and go no farther than the region's diagonal.
-    float farthest = 0.f;
-    if (finite)
-        for (int c = 0; c < 8; ++c)
-            farthest = std::max(farthest, glm::length(glm::vec3(c & 1 ? region.max.x : region.min.x,
-                                                                c & 2 ? region.max.y : region.min.y,
-                                                                c & 4 ? region.max.z : region.min.z) -
-                                                      look.camera.eye));
     const float secondaryOffset = std::max(2.f * eps, 0.5f * rays.pixelSize(farthest));
     const float secondaryMargin = 2.f * secondaryOffset + (o.aoSamples > 0 ? aoReach : 0.f);
     const float across = finite ? glm::length(region.size()) : 0.f;
@@ -158,15 +162,6 @@ Frame marchField(const implicit::FieldPtr& field, const implicit::Box3& bounds, 
                     y1 = float(std::min(y0 + detail::kTile, o.height));
         // The frustum slab between the region's nearest and farthest depths is inside the hull of the
         // four corner rays at those two depths.
-        float dmin = kInf, dmax = 0.f;
-        for (int c = 0; c < 8; ++c) {
-            const glm::vec3 q(c & 1 ? region.max.x : region.min.x, c & 2 ? region.max.y : region.min.y,
-                              c & 4 ? region.max.z : region.min.z);
-            const float d = glm::dot(q - look.camera.eye, rays.forward());
-            dmin = std::min(dmin, d);
-            dmax = std::max(dmax, d);
-        }
-        dmin = std::max(dmin, 0.f);
         implicit::Box3 box;
         for (const glm::vec2 c :
              {glm::vec2(float(x0), float(y0)), glm::vec2(x1, float(y0)), glm::vec2(float(x0), y1), glm::vec2(x1, y1)}) {

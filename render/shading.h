@@ -144,7 +144,6 @@ inline float srgbToLinear1(float c) {
     return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
 }
 
-/// What a hit needs to be shaded.
 /// A smooth (interpolated) normal `n`, already on the side of the surface that the ray along `dir`
 /// sees, may still lean away from the viewer: at a crease of a mesh, vertex normals belong to the
 /// other face. Shaded as it is, such a pixel comes out as dark as a face turned from the light (dark
@@ -164,6 +163,7 @@ inline glm::vec3 bendTowardsViewer(glm::vec3 n, const glm::vec3& dir) {
     return n;
 }
 
+/// What a hit needs to be shaded.
 struct Surface {
     glm::vec3 position, normal;  ///< normal: unit, facing the viewer
     glm::vec3 albedo;            ///< linear

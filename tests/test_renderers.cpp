@@ -75,29 +75,11 @@ mesh::TriMesh meshOf(const implicit::FieldPtr& f, float voxel) {
     return volume::extractIsosurface(*volume::sample(f, so), mo);
 }
 
-/// The field meshed and split into one object per material (as the CLI does), through Embree.
+/// The field meshed and split into one object per material, as the CLI does, through Embree.
 render::Frame castByMaterial(const implicit::FieldPtr& field, float voxel, const render::Look& look,
                              const render::RenderOptions& o) {
-    const mesh::TriMesh m = meshOf(field, voxel);
-    std::vector<mesh::TriMesh> parts;
     std::vector<implicit::Material> mats;
-    std::vector<const implicit::Material*> seen;
-    for (const auto& t : m.triangles) {
-        const implicit::Material* mat =
-            field->materialAt((m.positions[t.x] + m.positions[t.y] + m.positions[t.z]) / 3.f);
-        const std::size_t k = std::size_t(std::find(seen.begin(), seen.end(), mat) - seen.begin());
-        if (k == seen.size()) {
-            seen.push_back(mat);
-            mats.push_back(mat ? *mat : implicit::Material{});
-            parts.emplace_back();
-        }
-        const auto base = static_cast<unsigned>(parts[k].positions.size());
-        for (int c = 0; c < 3; ++c) {
-            parts[k].positions.push_back(m.positions[t[c]]);
-            parts[k].normals.push_back(m.normals[t[c]]);
-        }
-        parts[k].triangles.emplace_back(base, base + 1, base + 2);
-    }
+    const std::vector<mesh::TriMesh> parts = render::splitByMaterial(meshOf(field, voxel), *field, mats);
     std::vector<render::MeshObject> objs;
     for (std::size_t k = 0; k < parts.size(); ++k) objs.push_back({&parts[k], mats[k], false});
     return render::renderMeshes(objs, look, o);
