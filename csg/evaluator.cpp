@@ -1,0 +1,159 @@
+#include "csg/evaluator.h"
+
+#include <glm/mat4x4.hpp>
+
+#include "core/error.h"
+#include "csg/nodes.h"
+#include "csg/shapes.h"
+#include "implicit/primitives.h"
+
+namespace isoforge::csg {
+
+/// Fields of the statements in order (assignments first update the scope, as OpenSCAD does).
+std::vector<FieldPtr> Evaluator::run(const std::vector<Statement>& list, Scope& scope, int depth) {
+    for (const Statement& s : list)
+        if (s.assignment) {
+            try {
+                scope.vars[s.name] = evaluate(*s.value, scope);
+            } catch (const EvalError& e) {
+                d_.error(e.line, e.col, e.message);
+            }
+        }
+    std::vector<FieldPtr> out;
+    for (const Statement& s : list) {
+        if (s.assignment || s.modifier == '*' || s.modifier == '%') continue;
+        try {
+            FieldPtr f = call(s, scope, depth);
+            if (!f) continue;
+            if (s.modifier == '!' && !root_) root_ = f;
+            out.push_back(f);
+        } catch (const EvalError& e) {
+            d_.error(e.line, e.col, e.message);
+        } catch (const ParseError& e) {
+            d_.error(s.line, s.col, e.what());
+        } catch (const IoError& e) {
+            d_.error(s.line, s.col, e.what());
+        } catch (const std::invalid_argument& e) {
+            d_.error(s.line, s.col, e.what());
+        }
+    }
+    return out;
+}
+
+void Evaluator::note(int depth, const std::string& what, const Statement& s) {
+    outline +=
+        std::string(static_cast<std::size_t>(2 * depth), ' ') + what + "  (line " + std::to_string(s.line) + ")\n";
+}
+int Evaluator::fragments(const Scope& scope, const Statement& s) {
+    const Value* fn = scope.find("$fn");
+    if (!fn || fn->kind != Value::Number || !(fn->n >= 3)) return 0;
+    if (fn->n > 10000) throw EvalError{s.line, s.col, "$fn = " + std::to_string(fn->n) + " is more than 10,000 sides"};
+    return static_cast<int>(fn->n);
+}
+std::vector<FieldPtr> Evaluator::children(const Statement& s, const Scope& scope, int depth) {
+    Scope inner{{}, &scope};
+    return run(s.children, inner, depth + 1);
+}
+FieldPtr Evaluator::group(const Statement& s, const Scope& scope, int depth) {
+    auto kids = children(s, scope, depth);
+    if (kids.empty()) return nullptr;
+    return makeUnion(std::move(kids));
+}
+FieldPtr Evaluator::transformed(const Statement& s, const Scope& scope, int depth, const glm::dmat4& m) {
+    FieldPtr g = group(s, scope, depth);
+    return g ? implicit::makeTransformed(g, glm::mat4(m)) : nullptr;
+}
+std::string Evaluator::path(const std::string& p) const {
+    const std::filesystem::path q(p);
+    const std::string full = q.is_absolute() ? p : (dir_ / q).string();
+    std::error_code ec;
+    if (std::filesystem::exists(full, ec) && !std::filesystem::is_regular_file(full, ec))
+        throw IoError(full + ": not a regular file");  // a directory, /dev/zero, a FIFO
+    return full;
+}
+
+FieldPtr Evaluator::leafOf(const Call& c, FieldPtr f, const std::string& what) {
+    if (!c.s.children.empty()) d_.warn(c.s.line, c.s.col, c.s.name + "() takes no children; they are ignored");
+    primitive();
+    note(c.depth, what, c.s);
+    return f;
+}
+
+FieldPtr Evaluator::meshLeafOf(const Call& c, mesh::TriMesh m, const std::string& what, bool generated) {
+    bool closed = false;
+    std::vector<glm::uvec3> tris(m.triangles.begin(), m.triangles.end());
+    FieldPtr f = makeTriangleMeshField(std::move(m.positions), std::move(tris), c.s.name, &closed, generated);
+    if (!closed)
+        d_.warn(c.s.line, c.s.col,
+                what +
+                    " is not closed: inside and outside come from the generalized winding number, "
+                    "which bridges small holes");
+    return leafOf(c, f, c.s.name);
+}
+
+FieldPtr Evaluator::call(const Statement& s, const Scope& outer, int depth) {
+    // Special variables given as arguments ($fn = 0, ...) apply to this call.
+    Scope scope{{}, &outer};
+    for (const Arg& a : s.args)
+        if (!a.name.empty() && a.name[0] == '$') scope.vars[a.name] = evaluate(*a.value, outer);
+    const std::string& n = s.name;
+    const Call c{s, scope, depth};
+    if (auto f = primitive3D(c)) return *f;
+    if (auto f = shape2D(c)) return *f;
+    if (auto f = operation(c)) return *f;
+    if (auto f = extensionShape(c)) return *f;
+    if (auto f = sceneStatement(c)) return *f;
+    if (n == "echo" || n == "assert") return nullptr;
+    static const char* unsupported[] = {"minkowski", "hull", "import", "surface",          "text", "projection",
+                                        "children",  "let",  "for",    "intersection_for", "if"};
+    for (const char* u : unsupported)
+        if (n == u)
+            throw EvalError{
+                s.line, s.col,
+                "'" + n + "' is not supported (isoforge reads the CSG subset of OpenSCAD; see docs/scene-language.md)"};
+    throw EvalError{s.line, s.col, "unknown module '" + n + "'"};
+}
+
+std::optional<FieldPtr> Evaluator::sceneStatement(const Call& site) {
+    const Statement& s = site.s;
+    const Scope& scope = site.scope;
+    const std::string& n = s.name;
+    auto args = [&](std::vector<std::string> order) { return Args(s, scope, order); };
+    // --- scene statements
+    if (n == "camera") {
+        Args a = args({"eye", "target", "up", "fov", "orthographic"});
+        scene_.camera.given = true;
+        scene_.camera.eye = glm::vec3(a.vec3("eye", glm::dvec3(scene_.camera.eye), false));
+        scene_.camera.target = glm::vec3(a.vec3("target", glm::dvec3(scene_.camera.target), false));
+        scene_.camera.up = glm::vec3(a.vec3("up", glm::dvec3(scene_.camera.up), false));
+        scene_.camera.fov = float(a.number("fov", scene_.camera.fov));
+        scene_.camera.orthographic = a.boolean("orthographic", false);
+        if (scene_.camera.fov <= 0 || scene_.camera.fov >= 180)
+            throw a.error("fov", "fov must be between 0 and 180 degrees");
+        return nullptr;
+    }
+    if (n == "light") {
+        Args a = args({"direction", "color", "intensity"});
+        Light l;
+        if (a.has("position")) {
+            l.point = true;
+            l.vector = glm::vec3(a.vec3("position", std::nullopt, false));
+        } else {
+            l.vector = glm::vec3(a.vec3("direction", glm::dvec3(l.vector), false));
+        }
+        l.color = glm::vec3(a.vec3("color", glm::dvec3(1.0)));
+        l.intensity = float(a.number("intensity", 1.0));
+        scene_.lights.push_back(l);
+        return nullptr;
+    }
+    if (n == "background") {
+        Args a = args({"color"});
+        if (a.has("color")) scene_.backgroundTop = scene_.backgroundBottom = glm::vec3(a.vec3("color"));
+        if (a.has("top")) scene_.backgroundTop = glm::vec3(a.vec3("top"));
+        if (a.has("bottom")) scene_.backgroundBottom = glm::vec3(a.vec3("bottom"));
+        return nullptr;
+    }
+    return std::nullopt;
+}
+
+}  // namespace isoforge::csg

@@ -1,0 +1,72 @@
+#pragma once
+/// @file Internal to csg/: evaluation of a parsed scene into fields, module call by module call.
+/// evaluator.cpp runs statement lists and dispatches calls (and holds the scene statements);
+/// evaluator_shapes.cpp makes the leaf shapes, evaluator_operations.cpp the operations on children.
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <glm/mat4x4.hpp>
+
+#include "csg/args.h"
+#include "csg/diagnostics.h"
+#include "csg/scene.h"
+#include "csg/syntax.h"
+#include "csg/value.h"
+#include "mesh/parametric.h"
+#include "mesh/trimesh.h"
+
+namespace isoforge::csg {
+
+using implicit::FieldPtr;
+
+class Evaluator {
+public:
+    Evaluator(Diagnostics& d, Scene& scene, std::filesystem::path dir) : d_(d), scene_(scene), dir_(std::move(dir)) {}
+
+    /// Fields of the statements in order (assignments first update the scope, as OpenSCAD does).
+    std::vector<FieldPtr> run(const std::vector<Statement>& list, Scope& scope, int depth);
+    FieldPtr rootOverride() const { return root_; }
+    std::string outline;
+
+private:
+    /// One module call: the statement, its scope (with the special variables it sets), its depth.
+    struct Call {
+        const Statement& s;
+        const Scope& scope;
+        int depth;
+    };
+
+    void note(int depth, const std::string& what, const Statement& s);
+    static int fragments(const Scope& scope, const Statement& s);
+    std::vector<FieldPtr> children(const Statement& s, const Scope& scope, int depth);
+    FieldPtr group(const Statement& s, const Scope& scope, int depth);
+    FieldPtr transformed(const Statement& s, const Scope& scope, int depth, const glm::dmat4& m);
+    std::string path(const std::string& p) const;
+    void primitive() { ++scene_.primitives; }
+    static int resolutionArg(const Args& a, int def);
+    static mesh::NurbsSurface nurbsSurface(const Args& a);
+
+    FieldPtr call(const Statement& s, const Scope& outer, int depth);
+    /// A leaf shape (it warns about children, counts the primitive and notes it in the outline).
+    FieldPtr leafOf(const Call& c, FieldPtr f, const std::string& what);
+    /// A triangle mesh as a solid: a file (any mesh, inside from the winding number) or one we
+    /// tessellated (closed ones are trusted to be oriented, so the sign comes from pseudonormals).
+    FieldPtr meshLeafOf(const Call& c, mesh::TriMesh m, const std::string& what, bool generated);
+    // Each returns nothing when the call is not one of its modules (evaluator_shapes.cpp,
+    // evaluator_operations.cpp, evaluator.cpp).
+    std::optional<FieldPtr> primitive3D(const Call& site);
+    std::optional<FieldPtr> shape2D(const Call& site);
+    std::optional<FieldPtr> extensionShape(const Call& site);
+    std::optional<FieldPtr> operation(const Call& site);
+    std::optional<FieldPtr> sceneStatement(const Call& site);
+
+    Diagnostics& d_;
+    Scene& scene_;
+    std::filesystem::path dir_;
+    FieldPtr root_;
+};
+
+}  // namespace isoforge::csg

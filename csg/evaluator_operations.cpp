@@ -1,0 +1,192 @@
+#include <glm/geometric.hpp>
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "csg/evaluator.h"
+#include "csg/nodes.h"
+#include "csg/shapes.h"
+#include "implicit/primitives.h"
+
+namespace isoforge::csg {
+
+using implicit::Box3;
+
+std::optional<FieldPtr> Evaluator::operation(const Call& site) {
+    const Statement& s = site.s;
+    const Scope& scope = site.scope;
+    const int depth = site.depth;
+    const std::string& n = s.name;
+    auto args = [&](std::vector<std::string> order) { return Args(s, scope, order); };
+    if (n == "linear_extrude") {
+        Args a = args({"height", "center", "convexity", "twist", "slices", "scale"});
+        const double twist = a.number("twist", 0.0);
+        const glm::dvec3 sc = a.vec3("scale", glm::dvec3(1.0));
+        if (sc.x < 0 || sc.y < 0) throw a.error("scale", "linear_extrude scale must not be negative");
+        note(depth, "linear_extrude", s);
+        FieldPtr g = group(s, scope, depth);
+        return g ? makeLinearExtrude(g, float(a.number("height", 100.0)), a.boolean("center", false), float(twist),
+                                     glm::vec2(float(sc.x), float(sc.y)))
+                 : nullptr;
+    }
+    if (n == "rotate_extrude") {
+        Args a = args({"angle", "convexity"});
+        const double angle = a.number("angle", 360.0);
+        if (angle == 0 || !std::isfinite(angle)) throw a.error("angle", "rotate_extrude angle must be non-zero");
+        note(depth, "rotate_extrude", s);
+        FieldPtr g = group(s, scope, depth);
+        return g ? makeRotateExtrude(g, float(angle)) : nullptr;
+    }
+    // --- transforms
+    if (n == "translate") {
+        Args a = args({"v"});
+        note(depth, "translate", s);
+        return transformed(s, scope, depth, glm::translate(glm::dmat4(1.0), a.vec3("v", glm::dvec3(0.0), false)));
+    }
+    if (n == "scale") {
+        Args a = args({"v"});
+        const glm::dvec3 v = a.vec3("v", glm::dvec3(1.0));
+        if (v.x == 0 || v.y == 0 || v.z == 0) throw a.error("v", "scale factors must not be zero");
+        note(depth, "scale", s);
+        return transformed(s, scope, depth, glm::scale(glm::dmat4(1.0), v));
+    }
+    if (n == "rotate") {
+        Args a = args({"a", "v"});
+        glm::dmat4 m(1.0);
+        const Value* av = a.raw("a");
+        if (av && av->kind == Value::Vector) {
+            const glm::dvec3 r = a.vec3("a");
+            m = glm::rotate(glm::dmat4(1.0), r.z * kDeg, glm::dvec3(0, 0, 1)) *
+                glm::rotate(glm::dmat4(1.0), r.y * kDeg, glm::dvec3(0, 1, 0)) *
+                glm::rotate(glm::dmat4(1.0), r.x * kDeg, glm::dvec3(1, 0, 0));
+        } else {
+            const glm::dvec3 axis = a.vec3("v", glm::dvec3(0, 0, 1), false);
+            if (glm::length(axis) == 0) throw a.error("v", "the rotation axis must not be zero");
+            m = glm::rotate(glm::dmat4(1.0), a.number("a", 0.0) * kDeg, glm::normalize(axis));
+        }
+        note(depth, "rotate", s);
+        return transformed(s, scope, depth, m);
+    }
+    if (n == "mirror") {
+        Args a = args({"v"});
+        const glm::dvec3 v = a.vec3("v", glm::dvec3(1, 0, 0), false);
+        if (glm::length(v) == 0) throw a.error("v", "the mirror normal must not be zero");
+        const glm::dvec3 u = glm::normalize(v);
+        glm::dmat4 m(1.0);
+        for (int c = 0; c < 3; ++c)
+            for (int r = 0; r < 3; ++r) m[c][r] -= 2.0 * u[r] * u[c];
+        note(depth, "mirror", s);
+        return transformed(s, scope, depth, m);
+    }
+    if (n == "multmatrix") {
+        Args a = args({"m"});
+        int ml = s.line, mc = s.col;
+        const Value* mv = a.raw("m", &ml, &mc);
+        const auto rows = mv ? matrixOf(*mv) : std::vector<std::vector<double>>{};
+        if (rows.size() < 3 || rows.size() > 4) throw EvalError{ml, mc, "multmatrix needs a 3x4 or 4x4 matrix"};
+        glm::dmat4 m(1.0);
+        for (std::size_t r = 0; r < 3; ++r) {
+            if (rows[r].size() < 3) throw EvalError{ml, mc, "multmatrix rows need 4 numbers"};
+            for (std::size_t c = 0; c < std::min<std::size_t>(4, rows[r].size()); ++c)
+                m[static_cast<int>(c)][static_cast<int>(r)] = rows[r][c];
+        }
+        note(depth, "multmatrix", s);
+        return transformed(s, scope, depth, m);
+    }
+    if (n == "resize") {
+        Args a = args({"newsize", "auto"});
+        const glm::dvec3 ns = a.vec3("newsize", std::nullopt, false);
+        note(depth, "resize", s);
+        FieldPtr g = group(s, scope, depth);
+        if (!g) return nullptr;
+        const Box3 b = g->bounds();
+        if (!b.isBounded()) throw a.error("newsize", "resize() needs a bounded child");
+        const glm::dvec3 size(b.size());
+        glm::dvec3 f(1.0);
+        for (int k = 0; k < 3; ++k)
+            if (ns[k] > 0) f[k] = ns[k] / size[k];
+        return implicit::makeTransformed(g, glm::mat4(glm::scale(glm::dmat4(1.0), f)));
+    }
+    // --- booleans and groups
+    if (n == "union" || n == "group" || n == "render" || n == "intersection" || n == "difference" ||
+        n == "smooth_union" || n == "smooth_intersection" || n == "smooth_difference") {
+        const bool smooth = n.rfind("smooth_", 0) == 0;
+        Args a = args(smooth ? std::vector<std::string>{"k"} : std::vector<std::string>{"convexity"});
+        const float k = smooth ? float(a.number("k", 0.1)) : 0.f;
+        if (smooth && !(k > 0)) throw a.error("k", "the blend radius k must be positive");
+        note(depth, n, s);
+        auto kids = children(s, scope, depth);
+        if (kids.empty()) return nullptr;
+        const std::string base = smooth ? n.substr(7) : n;
+        if (base == "intersection") {
+            // A child whose bounds miss the others' (a shape outside its clipping box): nothing is left.
+            Box3 common = Box3::everything();
+            for (const auto& c : kids) common = common.intersect(c->bounds());
+            if (kids.size() > 1 && common.isEmpty())
+                d_.warn(s.line, s.col,
+                        "this intersection is empty: a child lies outside the others (outside its clipping box?)");
+            return makeIntersection(std::move(kids), k);
+        }
+        if (base == "difference") {
+            if (kids.size() > 1) {
+                const Box3 first = kids[0]->bounds();
+                bool removes = false;
+                for (std::size_t i = 1; i < kids.size(); ++i)
+                    removes = removes || !first.intersect(kids[i]->bounds()).isEmpty();
+                if (!removes)
+                    d_.warn(s.line, s.col,
+                            "this difference removes nothing: the subtracted children lie outside the first");
+            }
+            return makeDifference(std::move(kids), k);
+        }
+        return makeUnion(std::move(kids), k);
+    }
+    if (n == "color" || n == "material") {
+        const bool mat = n == "material";
+        Args a = mat ? args({"color", "diffuse", "specular", "shininess", "opacity"}) : args({"c", "alpha"});
+        const std::string key = mat ? "color" : "c";
+        glm::vec4 rgba(1.f);
+        if (mat) rgba = glm::vec4(0.8f, 0.8f, 0.8f, 1.f);
+        int cl = s.line, cc = s.col;
+        const Value* c = a.raw(key, &cl, &cc);
+        if (c && c->kind == Value::String) {
+            bool ok = false;
+            rgba = parseColor(c->s, ok);
+            if (!ok)
+                throw EvalError{cl, cc,
+                                "unknown colour '" + c->s + "' (use a name such as red, \"#ff8000\" or [r, g, b])"};
+        } else if (c && c->kind == Value::Vector && c->v.size() >= 3) {
+            rgba = glm::vec4(c->v[0].n, c->v[1].n, c->v[2].n, c->v.size() > 3 ? c->v[3].n : 1.0);
+        } else if (c && c->kind != Value::Undef) {
+            throw EvalError{cl, cc, n + " needs a colour name or [r, g, b(, a)]"};
+        }
+        if (a.has("alpha")) rgba.a = static_cast<float>(a.number("alpha"));
+        if (a.has("opacity")) rgba.a = static_cast<float>(a.number("opacity"));
+        if (!(rgba.a >= 0.f && rgba.a <= 1.f)) throw a.error(mat ? "opacity" : "alpha", "opacity must be in [0, 1]");
+        implicit::Material m;
+        m.color = glm::vec4(glm::vec3(rgba), std::max(rgba.a, 1e-3f));
+        if (mat) {
+            m.diffuse = float(a.number("diffuse", m.diffuse));
+            m.specular = float(a.number("specular", m.specular));
+            m.shininess = float(a.number("shininess", m.shininess));
+            if (m.diffuse < 0 || m.specular < 0 || m.shininess < 1)
+                throw a.error("shininess", "diffuse and specular must be >= 0 and shininess >= 1");
+        }
+        note(depth, n, s);
+        FieldPtr g = group(s, scope, depth);
+        return g ? makeMaterial(g, m) : nullptr;
+    }
+    if (n == "offset") {
+        Args a = args({"r", "delta", "chamfer"});
+        note(depth, "offset", s);
+        FieldPtr g = group(s, scope, depth);
+        return g ? implicit::makeOffset(g, float(a.has("delta") ? a.number("delta") : a.number("r", 0.0))) : nullptr;
+    }
+    if (n == "shell") {
+        Args a = args({"t"});
+        note(depth, "shell", s);
+        FieldPtr g = group(s, scope, depth);
+        return g ? implicit::makeShell(g, float(a.number("t", 0.1))) : nullptr;
+    }
+    return std::nullopt;
+}
+
+}  // namespace isoforge::csg
