@@ -1,5 +1,7 @@
 #include "csg/evaluator.h"
 
+#include <cmath>
+
 #include <glm/mat4x4.hpp>
 
 #include "core/error.h"
@@ -10,7 +12,16 @@
 namespace isoforge::csg {
 
 /// Fields of the statements in order (assignments first update the scope, as OpenSCAD does).
-std::vector<FieldPtr> Evaluator::run(const std::vector<Statement>& list, Scope& scope, int depth) {
+namespace {
+/// A 2D shape: bounded in x and y, the same along z.
+bool isPlanar(const FieldPtr& f) {
+    const implicit::Box3 b = f->bounds();
+    return std::isinf(b.min.z) && std::isinf(b.max.z) && std::isfinite(b.min.x) && std::isfinite(b.max.x) &&
+           std::isfinite(b.min.y) && std::isfinite(b.max.y);
+}
+}  // namespace
+
+std::vector<FieldPtr> Evaluator::run(const std::vector<Statement>& list, Scope& scope, int depth, Want want) {
     for (const Statement& s : list)
         if (s.assignment) {
             try {
@@ -20,6 +31,7 @@ std::vector<FieldPtr> Evaluator::run(const std::vector<Statement>& list, Scope& 
             }
         }
     std::vector<FieldPtr> out;
+    std::vector<const Statement*> sites;
     for (const Statement& s : list) {
         if (s.assignment || s.modifier == '*' || s.modifier == '%') continue;
         try {
@@ -27,6 +39,7 @@ std::vector<FieldPtr> Evaluator::run(const std::vector<Statement>& list, Scope& 
             if (!f) continue;
             if (s.modifier == '!' && !root_) root_ = f;
             out.push_back(f);
+            sites.push_back(&s);
         } catch (const EvalError& e) {
             d_.error(e.line, e.col, e.message);
         } catch (const ParseError& e) {
@@ -37,7 +50,25 @@ std::vector<FieldPtr> Evaluator::run(const std::vector<Statement>& list, Scope& 
             d_.error(s.line, s.col, e.what());
         }
     }
-    return out;
+    // OpenSCAD's dimensions: an extrusion ignores 3D children, and 2D objects beside 3D ones are
+    // ignored; both with a warning.
+    bool any3D = false;
+    for (const FieldPtr& f : out) any3D = any3D || !isPlanar(f);
+    if (want == Want::Any || (want == Want::Solids && !any3D)) return out;
+    std::vector<FieldPtr> kept;
+    for (std::size_t i = 0; i < out.size(); ++i) {
+        const bool planar = isPlanar(out[i]);
+        if (want == Want::Profiles && !planar)
+            d_.warn(sites[i]->line, sites[i]->col,
+                    "ignoring the 3D object " + sites[i]->name + "() inside a 2D operation, as OpenSCAD does");
+        else if (want == Want::Solids && planar)
+            d_.warn(sites[i]->line, sites[i]->col,
+                    "ignoring the 2D object " + sites[i]->name +
+                        "() beside 3D objects (mixing 2D and 3D is not supported, as in OpenSCAD)");
+        else
+            kept.push_back(out[i]);
+    }
+    return kept;
 }
 
 void Evaluator::note(int depth, const std::string& what, const Statement& s) {
@@ -46,13 +77,14 @@ void Evaluator::note(int depth, const std::string& what, const Statement& s) {
 }
 int Evaluator::fragments(const Scope& scope, const Statement& s) {
     const Value* fn = scope.find("$fn");
-    if (!fn || fn->kind != Value::Number || !(fn->n >= 3)) return 0;
+    // OpenSCAD: any $fn > 0 asks for that many fragments, at least 3.
+    if (!fn || fn->kind != Value::Number || !(fn->n > 0)) return 0;
     if (fn->n > 10000) throw EvalError{s.line, s.col, "$fn = " + std::to_string(fn->n) + " is more than 10,000 sides"};
-    return static_cast<int>(fn->n);
+    return std::max(3, static_cast<int>(fn->n));
 }
-std::vector<FieldPtr> Evaluator::children(const Statement& s, const Scope& scope, int depth) {
+std::vector<FieldPtr> Evaluator::children(const Statement& s, const Scope& scope, int depth, Want want) {
     Scope inner{{}, &scope};
-    return run(s.children, inner, depth + 1);
+    return run(s.children, inner, depth + 1, want);
 }
 FieldPtr Evaluator::group(const Statement& s, const Scope& scope, int depth) {
     auto kids = children(s, scope, depth);
@@ -70,6 +102,12 @@ std::string Evaluator::path(const std::string& p) const {
     if (std::filesystem::exists(full, ec) && !std::filesystem::is_regular_file(full, ec))
         throw IoError(full + ": not a regular file");  // a directory, /dev/zero, a FIFO
     return full;
+}
+
+FieldPtr Evaluator::dropped(const Call& site, const std::string& why) {
+    d_.warn(site.s.line, site.s.col, why + ": it is empty and ignored, as OpenSCAD does");
+    note(site.depth, site.s.name + " (empty, ignored)", site.s);
+    return nullptr;
 }
 
 FieldPtr Evaluator::leafOf(const Call& c, FieldPtr f, const std::string& what) {

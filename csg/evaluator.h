@@ -26,8 +26,11 @@ class Evaluator {
 public:
     Evaluator(Diagnostics& d, Scene& scene, std::filesystem::path dir) : d_(d), scene_(scene), dir_(std::move(dir)) {}
 
+    /// What a list of statements may hold: anything; solids (2D objects beside 3D ones are ignored);
+    /// profiles of an extrusion (3D objects are ignored).
+    enum class Want { Any, Solids, Profiles };
     /// Fields of the statements in order (assignments first update the scope, as OpenSCAD does).
-    std::vector<FieldPtr> run(const std::vector<Statement>& list, Scope& scope, int depth);
+    std::vector<FieldPtr> run(const std::vector<Statement>& list, Scope& scope, int depth, Want want = Want::Solids);
     FieldPtr rootOverride() const { return root_; }
     std::string outline;
 
@@ -41,7 +44,7 @@ private:
 
     void note(int depth, const std::string& what, const Statement& s);
     static int fragments(const Scope& scope, const Statement& s);
-    std::vector<FieldPtr> children(const Statement& s, const Scope& scope, int depth);
+    std::vector<FieldPtr> children(const Statement& s, const Scope& scope, int depth, Want want = Want::Solids);
     FieldPtr group(const Statement& s, const Scope& scope, int depth);
     FieldPtr transformed(const Statement& s, const Scope& scope, int depth, const glm::dmat4& m);
     std::string path(const std::string& p) const;
@@ -50,6 +53,8 @@ private:
     static mesh::NurbsSurface nurbsSurface(const Args& a);
 
     FieldPtr call(const Statement& s, const Scope& outer, int depth);
+    /// Warns that the call makes nothing (a degenerate object OpenSCAD also skips) and gives no field.
+    FieldPtr dropped(const Call& site, const std::string& why);
     /// A leaf shape (it warns about children, counts the primitive and notes it in the outline).
     FieldPtr leafOf(const Call& c, FieldPtr f, const std::string& what);
     /// A triangle mesh as a solid: a file (any mesh, inside from the winding number) or one we

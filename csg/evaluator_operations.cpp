@@ -1,5 +1,10 @@
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
 #include <glm/geometric.hpp>
 #include <glm/gtc/matrix_transform.hpp>
+#include <glm/matrix.hpp>
 
 #include "csg/evaluator.h"
 #include "csg/nodes.h"
@@ -18,22 +23,48 @@ std::optional<FieldPtr> Evaluator::operation(const Call& site) {
     auto args = [&](std::vector<std::string> order) { return Args(s, scope, order); };
     if (n == "linear_extrude") {
         Args a = args({"height", "center", "convexity", "twist", "slices", "scale"});
-        const double twist = a.number("twist", 0.0);
-        const glm::dvec3 sc = a.vec3("scale", glm::dvec3(1.0));
-        if (sc.x < 0 || sc.y < 0) throw a.error("scale", "linear_extrude scale must not be negative");
+        const double twist = a.number("twist", 0.0), height = a.number("height", 100.0);
+        glm::dvec3 sc = a.vec3("scale", glm::dvec3(1.0));
         note(depth, "linear_extrude", s);
-        FieldPtr g = group(s, scope, depth);
-        return g ? makeLinearExtrude(g, float(a.number("height", 100.0)), a.boolean("center", false), float(twist),
-                                     glm::vec2(float(sc.x), float(sc.y)))
-                 : nullptr;
+        auto kids = children(s, scope, depth, Want::Profiles);
+        if (kids.empty()) return nullptr;
+        if (!(height > 0) || !std::isfinite(height))
+            return dropped(site, "linear_extrude() with a zero, negative or non-finite height");
+        if (!std::isfinite(twist)) throw a.error("twist", "linear_extrude twist must be finite");
+        if (!(sc.x >= 0 && sc.y >= 0) || !std::isfinite(sc.x + sc.y)) {
+            d_.warn(s.line, s.col, "linear_extrude() scale must be finite and not negative: 1 is used");
+            sc = glm::dvec3(1.0);
+        }
+        return makeLinearExtrude(makeUnion(std::move(kids)), float(height), a.boolean("center", false), float(twist),
+                                 glm::vec2(float(sc.x), float(sc.y)));
     }
     if (n == "rotate_extrude") {
         Args a = args({"angle", "convexity"});
-        const double angle = a.number("angle", 360.0);
-        if (angle == 0 || !std::isfinite(angle)) throw a.error("angle", "rotate_extrude angle must be non-zero");
+        double angle = a.number("angle", 360.0);
         note(depth, "rotate_extrude", s);
-        FieldPtr g = group(s, scope, depth);
-        return g ? makeRotateExtrude(g, float(angle)) : nullptr;
+        auto kids = children(s, scope, depth, Want::Profiles);
+        if (kids.empty()) return nullptr;
+        if (angle == 0 || !std::isfinite(angle))
+            return dropped(site, "rotate_extrude() with a zero or non-finite angle");
+        angle = std::clamp(angle, -360.0, 360.0);  // OpenSCAD clamps to one turn
+        FieldPtr g = makeUnion(std::move(kids));
+        // OpenSCAD revolves a profile on either side of the axis (one on the -x side mirrored), but
+        // refuses one that crosses it.
+        const Box3 b = g->bounds();
+        const float slack = 1e-3f * std::max(b.max.x - b.min.x, b.max.y - b.min.y);
+        const bool negative = b.max.x <= slack && b.min.x < -slack;
+        if (b.min.x < -slack && b.max.x > slack) {
+            char range[96];
+            std::snprintf(range, sizeof range, "(range is %.2f -> %.2f)", double(b.min.x), double(b.max.x));
+            return dropped(site,
+                           std::string("rotate_extrude(): all points must have the same X coordinate sign ") + range);
+        }
+        // Faceted as OpenSCAD does for $fn > 0: a full turn in $fn segments, a part of one in
+        // max(floor($fn * |angle| / 360), 1).
+        int segments = fragments(scope, s);
+        if (segments > 0 && std::abs(angle) < 360)
+            segments = std::max(1, static_cast<int>(std::floor(segments * std::abs(angle) / 360.0)));
+        return makeRotateExtrude(g, float(angle), segments, negative);
     }
     // --- transforms
     if (n == "translate") {
@@ -44,7 +75,7 @@ std::optional<FieldPtr> Evaluator::operation(const Call& site) {
     if (n == "scale") {
         Args a = args({"v"});
         const glm::dvec3 v = a.vec3("v", glm::dvec3(1.0));
-        if (v.x == 0 || v.y == 0 || v.z == 0) throw a.error("v", "scale factors must not be zero");
+        if (v.x == 0 || v.y == 0 || v.z == 0) return dropped(site, "scale() by zero flattens its children");
         note(depth, "scale", s);
         return transformed(s, scope, depth, glm::scale(glm::dmat4(1.0), v));
     }
@@ -89,6 +120,11 @@ std::optional<FieldPtr> Evaluator::operation(const Call& site) {
                 m[static_cast<int>(c)][static_cast<int>(r)] = rows[r][c];
         }
         note(depth, "multmatrix", s);
+        const glm::dmat3 linear(m);
+        if (!(std::abs(glm::determinant(linear)) > 1e-12)) {
+            if (children(s, scope, depth).empty()) return nullptr;
+            return dropped(site, "multmatrix() with a singular matrix flattens its children");
+        }
         return transformed(s, scope, depth, m);
     }
     if (n == "resize") {

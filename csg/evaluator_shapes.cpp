@@ -1,4 +1,5 @@
 #include <array>
+#include <cmath>
 
 #include "core/error.h"
 #include "csg/evaluator.h"
@@ -108,7 +109,8 @@ std::optional<FieldPtr> Evaluator::primitive3D(const Call& site) {
     if (n == "cube") {
         Args a = args({"size", "center"});
         const glm::dvec3 size = a.vec3("size", glm::dvec3(1.0));
-        if (size.x <= 0 || size.y <= 0 || size.z <= 0) throw a.error("size", "cube sizes must be positive");
+        if (!(size.x > 0 && size.y > 0 && size.z > 0) || !std::isfinite(size.x + size.y + size.z))
+            return dropped(site, "cube() with a zero, negative or non-finite size");
         FieldPtr f = implicit::makeBox(glm::vec3(size));
         if (!a.boolean("center", false)) f = implicit::makeTranslated(f, glm::vec3(0.5 * size));
         return leaf(f, "cube");
@@ -116,7 +118,7 @@ std::optional<FieldPtr> Evaluator::primitive3D(const Call& site) {
     if (n == "sphere") {
         Args a = args({"r"});
         const double r = a.has("d") ? 0.5 * a.number("d") : a.number("r", 1.0);
-        if (!(r > 0)) throw a.error(a.has("d") ? "d" : "r", "sphere radius must be positive");
+        if (!(r > 0) || !std::isfinite(r)) return dropped(site, "sphere() with a zero, negative or non-finite radius");
         const int fn = fragments(scope, s);
         return leaf(fn ? makeFacetedSphere(static_cast<float>(r), fn) : implicit::makeSphere(static_cast<float>(r)),
                     fn ? "sphere ($fn=" + std::to_string(fn) + ")" : "sphere");
@@ -131,9 +133,10 @@ std::optional<FieldPtr> Evaluator::primitive3D(const Call& site) {
         if (a.has("d1")) r1 = 0.5 * a.number("d1");
         if (a.has("d2")) r2 = 0.5 * a.number("d2");
         const bool center = a.boolean("center", false);
-        if (!(h > 0)) throw a.error("h", "cylinder height must be positive");
-        if (r1 < 0 || r2 < 0 || r1 + r2 <= 0)
-            throw a.error("r", "cylinder radii must be non-negative and not both zero");
+        if (!(h > 0) || !std::isfinite(h))
+            return dropped(site, "cylinder() with a zero, negative or non-finite height");
+        if (!(r1 >= 0 && r2 >= 0) || r1 + r2 <= 0 || !std::isfinite(r1 + r2))
+            return dropped(site, "cylinder() with negative, non-finite or two zero radii");
         const int fn = fragments(scope, s);
         if (fn)
             return leaf(makeFacetedCylinder(float(r1), float(r2), float(h), center, fn),
@@ -160,7 +163,13 @@ std::optional<FieldPtr> Evaluator::primitive3D(const Call& site) {
             f.emplace_back();
             for (const auto& i : q.v) f.back().push_back(static_cast<int>(i.n));
         }
-        return leaf(makePolyhedron(std::move(p), f), "polyhedron");
+        FieldPtr poly;
+        try {
+            poly = makePolyhedron(std::move(p), f);
+        } catch (const std::invalid_argument& e) {
+            return dropped(site, e.what());
+        }
+        return leaf(poly, "polyhedron");
     }
     return std::nullopt;
 }
@@ -175,12 +184,15 @@ std::optional<FieldPtr> Evaluator::shape2D(const Call& site) {
     if (n == "circle") {
         Args a = args({"r"});
         const double r = a.has("d") ? 0.5 * a.number("d") : a.number("r", 1.0);
+        if (!(r > 0) || !std::isfinite(r)) return dropped(site, "circle() with a zero, negative or non-finite radius");
         const int fn = fragments(scope, s);
-        return leaf(fn ? makePolygon2D(regularPolygon(float(r), fn)) : makeCircle2D(float(r)), "circle");
+        return leaf(fn ? makeRegularPolygon2D(float(r), fn) : makeCircle2D(float(r)), "circle");
     }
     if (n == "square") {
         Args a = args({"size", "center"});
         const glm::dvec3 size = a.vec3("size", glm::dvec3(1.0));
+        if (!(size.x > 0 && size.y > 0) || !std::isfinite(size.x + size.y))
+            return dropped(site, "square() with a zero, negative or non-finite size");
         const glm::vec2 sz(static_cast<float>(size.x), static_cast<float>(size.y));
         const glm::vec2 lo = a.boolean("center", false) ? -0.5f * sz : glm::vec2(0.f);
         return leaf(makeRectangle2D(lo, lo + sz), "square");
@@ -233,7 +245,13 @@ std::optional<FieldPtr> Evaluator::shape2D(const Call& site) {
                 paths = std::move(newPaths);
             }
         }
-        return leaf(makePolygon2D(std::move(p), std::move(paths)), "polygon");
+        FieldPtr poly;
+        try {
+            poly = makePolygon2D(std::move(p), std::move(paths));
+        } catch (const std::invalid_argument& e) {
+            return dropped(site, e.what());
+        }
+        return leaf(poly, "polygon");
     }
     return std::nullopt;
 }

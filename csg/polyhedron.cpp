@@ -16,6 +16,7 @@
 #include <glm/geometric.hpp>
 
 #include "csg/shapes.h"
+#include "mesh/triangulate.h"
 
 namespace isoforge::csg {
 
@@ -304,7 +305,10 @@ private:
             stack[top++] = n.first;
             stack[top++] = n.first + 1;
         }
-        return omega > 2.0 * M_PI;  // winding number omega / 4 pi > 1/2
+        // |winding number| = |omega| / 4 pi > 1/2: either orientation, as OpenSCAD takes faces listed
+        // either way round (its convention is clockwise seen from outside); an open or non-manifold
+        // mesh (two solids touching along an edge) is never re-oriented, so the sign must not matter.
+        return std::abs(omega) > 2.0 * M_PI;
     }
 
     void buildDipoles() {
@@ -470,9 +474,10 @@ FieldPtr makePolyhedron(std::vector<glm::vec3> points, const std::vector<std::ve
                 throw std::invalid_argument("polyhedron: face " + std::to_string(f) + " names point " +
                                             std::to_string(i) + ", but there are " + std::to_string(points.size()));
     }
+    // Concave and slightly non-planar faces are triangulated in their own plane.
     std::vector<glm::uvec3> tris;
     for (const auto& face : faces)
-        for (std::size_t k = 1; k + 1 < face.size(); ++k) tris.emplace_back(face[0], face[k], face[k + 1]);
+        for (const glm::uvec3& tri : mesh::triangulateFace(points, face)) tris.push_back(tri);
     return makeTriangleMeshField(std::move(points), std::move(tris), "polyhedron", nullptr, true);
 }
 

@@ -155,18 +155,50 @@ private:
     bool plain_ = true;
 };
 
+/// A regular n-gon of circumradius r with a vertex on +x: the signed distance to the edge of the
+/// point's own sector (exact inside, a lower bound outside), in O(1) whatever n.
+class RegularPolygon2D final : public Shape2D<RegularPolygon2D> {
+public:
+    RegularPolygon2D(float r, int n) : r_(r), n_(n), step_(2.0 * M_PI / n), apothem_(r * std::cos(M_PI / n)) {}
+    float eval(glm::vec2 p) const {
+        const double phi = std::atan2(double(p.y), double(p.x));
+        const double mid = (std::floor(phi / step_) + 0.5) * step_;
+        return static_cast<float>(p.x * std::cos(mid) + p.y * std::sin(mid) - apothem_);
+    }
+    std::pair<glm::vec2, glm::vec2> extent() const { return {glm::vec2(-r_), glm::vec2(r_)}; }
+    std::string describe() const override { return "circle($fn=" + std::to_string(n_) + ")"; }
+
+private:
+    float r_;
+    int n_;
+    double step_, apothem_;
+};
+
+/// A 2D child (its x >= 0 side, or its mirror image for profiles on the x <= 0 side) revolved about
+/// the z axis, smoothly or as OpenSCAD facets it: `segments` flat segments, each of the angle's
+/// 1/segments, the first from the +x axis. Faceted, a point at radius rho whose angle lies `delta`
+/// off the middle of its segment sees the profile at r' = rho cos(delta) / cos(half the segment's
+/// angle): the facets between two profile points are the trapezoids on which r' runs along the
+/// profile's edge, so the zero set is exactly OpenSCAD's. The value is scaled by cos(half angle)
+/// to stay a lower bound of the distance.
 class RotateExtrude final : public implicit::Field {
 public:
-    RotateExtrude(FieldPtr c, float angleDeg) : child_(std::move(c)) {
-        const float a = static_cast<float>(std::clamp(angleDeg, -360.f, 360.f) * M_PI / 180.0);
+    RotateExtrude(FieldPtr c, float angleDeg, int segments, bool mirrored) : child_(std::move(c)), mirror_(mirrored) {
+        const double a = std::clamp(double(angleDeg), -360.0, 360.0) * M_PI / 180.0;
         full_ = std::abs(angleDeg) >= 360.f;
         // The wedge from the +x axis turning counter-clockwise by `a` (clockwise when negative).
-        lo_ = std::min(0.f, a);
-        hi_ = std::max(0.f, a);
+        lo_ = static_cast<float>(std::min(0.0, a));
+        hi_ = static_cast<float>(std::max(0.0, a));
+        if (segments > 0) {
+            step_ = std::abs(full_ ? 2.0 * M_PI : a) / segments;
+            if (step_ < 0.9 * M_PI) {  // one segment over half a turn or more has no faceted meaning
+                cosHalf_ = std::cos(0.5 * step_);
+                faceted_ = true;
+            }
+        }
     }
     float value(const glm::vec3& p) const override {
-        const float r = std::sqrt(p.x * p.x + p.y * p.y);
-        const float inPlane = child_->value(glm::vec3(r, p.z, 0.f));
+        const float inPlane = profile(p);
         if (full_) return inPlane;
         float phi = std::atan2(p.y, p.x);
         if (phi < lo_) phi += 2.f * static_cast<float>(M_PI);
@@ -181,7 +213,7 @@ public:
             const glm::vec2 dir(std::cos(ang), std::sin(ang));
             const float u = p.x * dir.x + p.y * dir.y;   // along the end half-plane
             const float v = -p.x * dir.y + p.y * dir.x;  // across it
-            const float in = std::max(child_->value(glm::vec3(u, p.z, 0.f)), 0.f);
+            const float in = std::max(child(u, p.z), 0.f);
             return std::sqrt(v * v + in * in);
         };
         return std::min(toCap(lo_), toCap(hi_));
@@ -198,6 +230,16 @@ public:
     const implicit::Material* materialAt(const glm::vec3& p) const override { return child_->materialAt(p); }
 
 private:
+    float child(float r, float z) const { return child_->value(glm::vec3(mirror_ ? -r : r, z, 0.f)); }
+    /// The profile's value at the point's radius (smooth) or at its faceted radius r'.
+    float profile(const glm::vec3& p) const {
+        if (!faceted_) return child(std::sqrt(p.x * p.x + p.y * p.y), p.z);
+        double phi = std::atan2(double(p.y), double(p.x)) - double(lo_);
+        if (phi < 0) phi += 2.0 * M_PI;
+        const double mid = double(lo_) + (std::floor(phi / step_) + 0.5) * step_;
+        const double along = p.x * std::cos(mid) + p.y * std::sin(mid);
+        return static_cast<float>(child(static_cast<float>(std::max(along, 0.0) / cosHalf_), p.z) * cosHalf_);
+    }
     /// Distance from p to the end half-plane at angle `ang` (for points inside the wedge).
     static float capDistance(const glm::vec3& p, float ang) {
         const glm::vec2 dir(std::cos(ang), std::sin(ang));
@@ -205,8 +247,9 @@ private:
         return u >= 0 ? std::abs(v) : std::sqrt(u * u + v * v);
     }
     FieldPtr child_;
-    bool full_ = true;
+    bool mirror_ = false, full_ = true, faceted_ = false;
     float lo_ = 0.f, hi_ = 0.f;
+    double step_ = 0, cosHalf_ = 1;
 };
 
 }  // namespace
@@ -246,56 +289,43 @@ FieldPtr makeLinearExtrude(FieldPtr c, float h, bool center, float twistDeg, glm
     if (!std::isfinite(twistDeg)) throw std::invalid_argument("linear_extrude: twist must be finite");
     return std::make_shared<LinearExtrude>(std::move(c), h, center, twistDeg, scale);
 }
-FieldPtr makeRotateExtrude(FieldPtr c, float angleDeg) {
+FieldPtr makeRegularPolygon2D(float r, int n) {
+    if (!(r > 0) || !std::isfinite(r) || n < 3)
+        throw std::invalid_argument("circle: radius must be positive, $fn >= 3");
+    return std::make_shared<RegularPolygon2D>(r, n);
+}
+FieldPtr makeRotateExtrude(FieldPtr c, float angleDeg, int segments, bool mirrored) {
     if (!(angleDeg != 0.f) || !std::isfinite(angleDeg))
         throw std::invalid_argument("rotate_extrude: angle must be non-zero and finite");
-    return std::make_shared<RotateExtrude>(std::move(c), angleDeg);
+    return std::make_shared<RotateExtrude>(std::move(c), angleDeg, segments, mirrored);
 }
 
 FieldPtr makeFacetedSphere(float r, int n) {
     if (!(r > 0) || n < 3) throw std::invalid_argument("sphere: radius must be positive and $fn >= 3");
-    // OpenSCAD: (n + 1) / 2 rings at polar angles 180 (i + 0.5) / rings, each a regular n-gon.
+    // OpenSCAD: (n + 1) / 2 rings at polar angles 180 (i + 0.5) / rings, each a regular n-gon, joined
+    // by flat quads at the same angles; the end rings are flat caps. That is the faceted revolve of
+    // the profile through the rings' radii, closed along the axis.
     const int rings = (n + 1) / 2;
-    std::vector<glm::vec3> pts;
+    std::vector<glm::vec2> profile;
     for (int i = 0; i < rings; ++i) {
         const double phi = M_PI * (i + 0.5) / rings;
-        const double rr = r * std::sin(phi), z = r * std::cos(phi);
-        for (const auto& q : regularPolygon(static_cast<float>(rr), n))
-            pts.emplace_back(q.x, q.y, static_cast<float>(z));
+        profile.emplace_back(static_cast<float>(r * std::sin(phi)), static_cast<float>(r * std::cos(phi)));
     }
-    std::vector<std::vector<int>> faces;
-    std::vector<int> top, bottom;
-    for (int j = 0; j < n; ++j) {
-        top.push_back(j);
-        bottom.push_back((rings - 1) * n + (n - 1 - j));
-    }
-    faces.push_back(top);
-    faces.push_back(bottom);
-    for (int i = 0; i + 1 < rings; ++i)
-        for (int j = 0; j < n; ++j) {
-            const int a = i * n + j, b = i * n + (j + 1) % n, c = (i + 1) * n + (j + 1) % n, d = (i + 1) * n + j;
-            faces.push_back({a, b, c, d});
-        }
-    return makePolyhedron(std::move(pts), faces);
+    profile.emplace_back(0.f, profile.back().y);
+    profile.insert(profile.begin(), glm::vec2(0.f, profile.front().y));
+    return makeRotateExtrude(makePolygon2D(std::move(profile)), 360.f, n);
 }
 
 FieldPtr makeFacetedCylinder(float r1, float r2, float h, bool center, int n) {
     if (!(h > 0) || r1 < 0 || r2 < 0 || r1 + r2 <= 0 || n < 3)
         throw std::invalid_argument("cylinder: height must be positive, radii non-negative (not both 0), $fn >= 3");
     const float z0 = center ? -0.5f * h : 0.f;
-    std::vector<glm::vec3> pts;
-    for (const auto& q : regularPolygon(r1, n)) pts.emplace_back(q.x, q.y, z0);
-    for (const auto& q : regularPolygon(r2, n)) pts.emplace_back(q.x, q.y, z0 + h);
-    std::vector<std::vector<int>> faces;
-    std::vector<int> bottom, top;
-    for (int j = 0; j < n; ++j) {
-        bottom.push_back(n - 1 - j);
-        top.push_back(n + j);
-    }
-    faces.push_back(bottom);
-    faces.push_back(top);
-    for (int j = 0; j < n; ++j) faces.push_back({j, (j + 1) % n, n + (j + 1) % n, n + j});
-    return makePolyhedron(std::move(pts), faces);
+    if (r1 == r2)  // a prism: the regular polygon extruded (exact distance along z)
+        return makeLinearExtrude(makeRegularPolygon2D(r1, n), h, center);
+    std::vector<glm::vec2> profile{{0.f, z0}, {r1, z0}, {r2, z0 + h}, {0.f, z0 + h}};
+    if (r1 == 0) profile.erase(profile.begin() + 1);
+    if (r2 == 0) profile.erase(profile.end() - 2);
+    return makeRotateExtrude(makePolygon2D(std::move(profile)), 360.f, n);
 }
 
 }  // namespace isoforge::csg

@@ -37,6 +37,8 @@ FieldPtr makeRectangle2D(glm::vec2 min, glm::vec2 max);
 FieldPtr makePolygon2D(std::vector<glm::vec2> points, std::vector<std::vector<int>> paths = {});
 /// A regular n-gon of circumradius r with a vertex on +x (OpenSCAD's circle($fn = n)).
 std::vector<glm::vec2> regularPolygon(float r, int n);
+/// The same n-gon as a field in O(1) per point (distance to the edge of the point's sector).
+FieldPtr makeRegularPolygon2D(float r, int n);
 
 /// 2D child extruded from z = 0 to height (or centred), as OpenSCAD does: turned by -twist * t
 /// degrees and scaled by lerp(1, scale, t) at height fraction t (the value is then a conservative
@@ -45,9 +47,12 @@ FieldPtr makeLinearExtrude(FieldPtr child2d, float height, bool center, float tw
                            glm::vec2 scale = glm::vec2(1.f));
 /// 2D child (x >= 0 half-plane) revolved about the z axis; (x, y) of the child become (radius, z).
 /// |angle| < 360: only the wedge from the +x axis turning by `angle` degrees (counter-clockwise when positive).
-FieldPtr makeRotateExtrude(FieldPtr child2d, float angleDeg = 360.f);
+/// With `segments` > 0, faceted as OpenSCAD does ($fn): that many flat segments over the angle, the
+/// first from the +x axis. `mirrored`: the profile lies on the x <= 0 side (OpenSCAD takes it mirrored).
+FieldPtr makeRotateExtrude(FieldPtr child2d, float angleDeg = 360.f, int segments = 0, bool mirrored = false);
 
-/// OpenSCAD's faceted sphere and cylinder for $fn = n > 0 (the same vertices OpenSCAD makes).
+/// OpenSCAD's faceted sphere and cylinder for $fn = n > 0 (the same vertices and faces OpenSCAD
+/// makes), as faceted revolves and prisms: analytic, O(1) in n for cylinders, O(rings) for spheres.
 FieldPtr makeFacetedSphere(float r, int n);
 FieldPtr makeFacetedCylinder(float r1, float r2, float h, bool center, int n);
 

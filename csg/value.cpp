@@ -16,6 +16,9 @@ Value evaluate(const Expr& e, const Scope& scope) {
         case Expr::Var: {
             if (const Value* v = scope.find(e.text)) return *v;
             if (e.text == "PI") return Value::num(M_PI);
+            // OpenSCAD's exports write infinite and undefined numbers as inf and nan.
+            if (e.text == "inf") return Value::num(HUGE_VAL);
+            if (e.text == "nan") return Value::num(std::nan(""));
             if (e.text[0] == '$') return {};
             throw err("unknown variable '" + e.text + "'");
         }
