@@ -53,12 +53,14 @@ std::vector<FieldPtr> Evaluator::run(const std::vector<Statement>& list, Scope& 
     // OpenSCAD's dimensions: an extrusion ignores 3D children, and 2D objects beside 3D ones are
     // ignored; both with a warning.
     bool any3D = false;
-    for (const FieldPtr& f : out) any3D = any3D || !isPlanar(f);
+    for (const FieldPtr& f : out) any3D = any3D || (!isPlanar(f) && !f->bounds().isEmpty());
     if (want == Want::Any || (want == Want::Solids && !any3D)) return out;
     std::vector<FieldPtr> kept;
     for (std::size_t i = 0; i < out.size(); ++i) {
         const bool planar = isPlanar(out[i]);
-        if (want == Want::Profiles && !planar)
+        if (out[i]->bounds().isEmpty())
+            kept.push_back(out[i]);
+        else if (want == Want::Profiles && !planar)
             d_.warn(sites[i]->line, sites[i]->col,
                     "ignoring the 3D object " + sites[i]->name + "() inside a 2D operation, as OpenSCAD does");
         else if (want == Want::Solids && planar)
@@ -75,12 +77,27 @@ void Evaluator::note(int depth, const std::string& what, const Statement& s) {
     outline +=
         std::string(static_cast<std::size_t>(2 * depth), ' ') + what + "  (line " + std::to_string(s.line) + ")\n";
 }
-int Evaluator::fragments(const Scope& scope, const Statement& s) {
-    const Value* fn = scope.find("$fn");
-    // OpenSCAD: any $fn > 0 asks for that many fragments, at least 3.
-    if (!fn || fn->kind != Value::Number || !(fn->n > 0)) return 0;
-    if (fn->n > 10000) throw EvalError{s.line, s.col, "$fn = " + std::to_string(fn->n) + " is more than 10,000 sides"};
-    return std::max(3, static_cast<int>(fn->n));
+int Evaluator::fragments(const Scope& scope, const Statement& s, double r) {
+    auto number = [&](const char* name) {
+        const Value* v = scope.find(name);
+        return v && v->kind == Value::Number ? v->n : 0.0;
+    };
+    const double fn = number("$fn");
+    // OpenSCAD (Calc::get_fragments_from_r): any $fn > 0 asks for that many fragments, at least 3.
+    if (fn > 0) {
+        if (fn > 10000) throw EvalError{s.line, s.col, "$fn = " + std::to_string(fn) + " is more than 10,000 sides"};
+        return std::max(3, static_cast<int>(fn));
+    }
+    // $fn = 0 with $fa and $fs given (every OpenSCAD export carries them): OpenSCAD's own faceting,
+    // ceil(max(min(360 / $fa, 2 pi r / $fs), 5)), so that the solid is the one OpenSCAD makes. Without
+    // them (our own scenes), 0: the exact smooth shape.
+    const Value* fa = scope.find("$fa");
+    const Value* fs = scope.find("$fs");
+    if (!fa || !fs || fa->kind != Value::Number || fs->kind != Value::Number) return 0;
+    if (!(r >= 0.00000095367431640625)) return 3;                       // OpenSCAD's GRID_FINE
+    const double a = std::max(fa->n, 0.01), f = std::max(fs->n, 0.01);  // its minimum for both
+    const double n = std::ceil(std::max(std::min(360.0 / a, r * 2.0 * M_PI / f), 5.0));
+    return static_cast<int>(std::min(n, 10000.0));
 }
 std::vector<FieldPtr> Evaluator::children(const Statement& s, const Scope& scope, int depth, Want want) {
     Scope inner{{}, &scope};
@@ -107,7 +124,9 @@ std::string Evaluator::path(const std::string& p) const {
 FieldPtr Evaluator::dropped(const Call& site, const std::string& why) {
     d_.warn(site.s.line, site.s.col, why + ": it is empty and ignored, as OpenSCAD does");
     note(site.depth, site.s.name + " (empty, ignored)", site.s);
-    return nullptr;
+    // An empty solid, not nothing: as the first child of a difference it empties the difference,
+    // and in an intersection the intersection, as in OpenSCAD.
+    return makeEmpty();
 }
 
 FieldPtr Evaluator::leafOf(const Call& c, FieldPtr f, const std::string& what) {

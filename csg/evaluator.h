@@ -43,7 +43,8 @@ private:
     };
 
     void note(int depth, const std::string& what, const Statement& s);
-    static int fragments(const Scope& scope, const Statement& s);
+    /// OpenSCAD's number of fragments of a circle of radius r; 0 for an exact smooth shape.
+    static int fragments(const Scope& scope, const Statement& s, double r);
     std::vector<FieldPtr> children(const Statement& s, const Scope& scope, int depth, Want want = Want::Solids);
     FieldPtr group(const Statement& s, const Scope& scope, int depth);
     FieldPtr transformed(const Statement& s, const Scope& scope, int depth, const glm::dmat4& m);
@@ -53,7 +54,7 @@ private:
     static mesh::NurbsSurface nurbsSurface(const Args& a);
 
     FieldPtr call(const Statement& s, const Scope& outer, int depth);
-    /// Warns that the call makes nothing (a degenerate object OpenSCAD also skips) and gives no field.
+    /// Warns that the call makes nothing (a degenerate object OpenSCAD also skips): an empty field.
     FieldPtr dropped(const Call& site, const std::string& why);
     /// A leaf shape (it warns about children, counts the primitive and notes it in the outline).
     FieldPtr leafOf(const Call& c, FieldPtr f, const std::string& what);

@@ -61,7 +61,7 @@ std::optional<FieldPtr> Evaluator::operation(const Call& site) {
         }
         // Faceted as OpenSCAD does for $fn > 0: a full turn in $fn segments, a part of one in
         // max(floor($fn * |angle| / 360), 1).
-        int segments = fragments(scope, s);
+        int segments = fragments(scope, s, std::max(std::abs(b.min.x), std::abs(b.max.x)));
         if (segments > 0 && std::abs(angle) < 360)
             segments = std::max(1, static_cast<int>(std::floor(segments * std::abs(angle) / 360.0)));
         return makeRotateExtrude(g, float(angle), segments, negative);

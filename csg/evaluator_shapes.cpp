@@ -119,7 +119,7 @@ std::optional<FieldPtr> Evaluator::primitive3D(const Call& site) {
         Args a = args({"r"});
         const double r = a.has("d") ? 0.5 * a.number("d") : a.number("r", 1.0);
         if (!(r > 0) || !std::isfinite(r)) return dropped(site, "sphere() with a zero, negative or non-finite radius");
-        const int fn = fragments(scope, s);
+        const int fn = fragments(scope, s, r);
         return leaf(fn ? makeFacetedSphere(static_cast<float>(r), fn) : implicit::makeSphere(static_cast<float>(r)),
                     fn ? "sphere ($fn=" + std::to_string(fn) + ")" : "sphere");
     }
@@ -137,7 +137,7 @@ std::optional<FieldPtr> Evaluator::primitive3D(const Call& site) {
             return dropped(site, "cylinder() with a zero, negative or non-finite height");
         if (!(r1 >= 0 && r2 >= 0) || r1 + r2 <= 0 || !std::isfinite(r1 + r2))
             return dropped(site, "cylinder() with negative, non-finite or two zero radii");
-        const int fn = fragments(scope, s);
+        const int fn = fragments(scope, s, std::max(r1, r2));
         if (fn)
             return leaf(makeFacetedCylinder(float(r1), float(r2), float(h), center, fn),
                         "cylinder ($fn=" + std::to_string(fn) + ")");
@@ -185,7 +185,7 @@ std::optional<FieldPtr> Evaluator::shape2D(const Call& site) {
         Args a = args({"r"});
         const double r = a.has("d") ? 0.5 * a.number("d") : a.number("r", 1.0);
         if (!(r > 0) || !std::isfinite(r)) return dropped(site, "circle() with a zero, negative or non-finite radius");
-        const int fn = fragments(scope, s);
+        const int fn = fragments(scope, s, r);
         return leaf(fn ? makeRegularPolygon2D(float(r), fn) : makeCircle2D(float(r)), "circle");
     }
     if (n == "square") {

@@ -184,6 +184,9 @@ private:
 class RotateExtrude final : public implicit::Field {
 public:
     RotateExtrude(FieldPtr c, float angleDeg, int segments, bool mirrored) : child_(std::move(c)), mirror_(mirrored) {
+        const Box3 cb = child_->bounds();
+        const float size = std::max(cb.max.x - cb.min.x, cb.max.y - cb.min.y);
+        axisOffset_ = std::isfinite(size) ? 1e-6f * size : 0.f;
         const double a = std::clamp(double(angleDeg), -360.0, 360.0) * M_PI / 180.0;
         full_ = std::abs(angleDeg) >= 360.f;
         // The wedge from the +x axis turning counter-clockwise by `a` (clockwise when negative).
@@ -230,7 +233,12 @@ public:
     const implicit::Material* materialAt(const glm::vec3& p) const override { return child_->materialAt(p); }
 
 private:
-    float child(float r, float z) const { return child_->value(glm::vec3(mirror_ ? -r : r, z, 0.f)); }
+    /// The profile at radius r. Points on the axis are taken a hair off it: a profile that touches
+    /// the axis has its edge there, where the 2D sign is a coin toss, while in 3D the axis is inside.
+    float child(float r, float z) const {
+        r = std::max(r, axisOffset_);
+        return child_->value(glm::vec3(mirror_ ? -r : r, z, 0.f));
+    }
     /// The profile's value at the point's radius (smooth) or at its faceted radius r'.
     float profile(const glm::vec3& p) const {
         if (!faceted_) return child(std::sqrt(p.x * p.x + p.y * p.y), p.z);
@@ -250,6 +258,7 @@ private:
     bool mirror_ = false, full_ = true, faceted_ = false;
     float lo_ = 0.f, hi_ = 0.f;
     double step_ = 0, cosHalf_ = 1;
+    float axisOffset_ = 0.f;
 };
 
 }  // namespace
