@@ -553,11 +553,13 @@ namespace isoforge::app {
 void addCheckSceneCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
     auto file = std::make_shared<std::string>();
     auto* cmd = app.add_subcommand("check-scene",
-                                   "Parse a scene (.isf, OpenSCAD .csg) and report its tree, bounds and warnings");
-    cmd->add_option("scene", *file, "Scene file")->required();
-    cmd->callback([&c, file] {
-        c.run = [file] {
-            csg::Scene s = csg::readScene(*file);
+                                   "Parse a scene (.isf, OpenSCAD .csg or .scad) and report its tree, bounds and warnings");
+    auto defines = std::make_shared<std::vector<std::string>>();
+    cmd->add_option("scene", *file, "Scene file (.isf, .csg, or .scad through openscad)")->required();
+    addDefineOption(cmd, *defines);
+    cmd->callback([&c, file, defines] {
+        c.run = [file, defines] {
+            csg::Scene s = csg::readScene(*file, *defines);
             std::printf("%s: %zu primitives\n%s", file->c_str(), s.primitives, s.tree.c_str());
             const implicit::Box3 b = s.root->bounds();
             if (b.isEmpty())

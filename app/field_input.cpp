@@ -10,7 +10,20 @@
 
 namespace isoforge::app {
 
+void addDefineOption(CLI::App* cmd, std::vector<std::string>& defines) {
+    cmd->add_option("-D,--define", defines,
+                    "NAME=VALUE for a .scad model, as openscad -D takes it (repeatable), e.g. -D '$fn=96'")
+        ->check([](const std::string& d) {
+            const auto eq = d.find('=');
+            if (eq == 0 || eq == std::string::npos) return std::string("expected NAME=VALUE, got '" + d + "'");
+            return std::string();
+        })
+        ->take_last()
+        ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+}
+
 void addFieldOptions(CLI::App* cmd, FieldInput& in, bool sampling) {
+    addDefineOption(cmd, in.defines);
     cmd->add_option("--shape", in.shape, "A primitive, e.g. \"torus(R=1, r=0.3)\" (see 'isoforge shapes')");
     cmd->add_option("--expr", in.expr, "An algebraic surface f(x,y,z) = 0, negative inside, e.g. \"x^2+y^2+z^2-1\"");
     cmd->add_option("--box", in.box, "Clip box x0,y0,z0,x1,y1,z1 (needed for unbounded fields; .vm default [-1,1]^3)")
@@ -55,7 +68,7 @@ implicit::FieldPtr makeField(const std::string& file, const FieldInput& in, impl
     } else if (!in.expr.empty()) {
         f = implicit::makeTapeField(implicit::parseExpression(in.expr), implicit::Box3::everything(), in.expr);
     } else if (isSceneFile(file)) {
-        csg::Scene scene = csg::readScene(file);
+        csg::Scene scene = csg::readScene(file, in.defines);
         for (const auto& w : scene.warnings)
             std::fprintf(stderr, "isoforge: warning: %s: %s\n", w.loc.toString().c_str(), w.message.c_str());
         f = scene.root;
@@ -70,6 +83,8 @@ implicit::FieldPtr makeField(const std::string& file, const FieldInput& in, impl
         clip = {glm::vec3(in.box[0], in.box[1], in.box[2]), glm::vec3(in.box[3], in.box[4], in.box[5])};
         if (clip.isEmpty()) throw CLI::ValidationError("--box", "expected x0,y0,z0,x1,y1,z1 with x0 <= x1 ...");
     }
+    if (f->bounds().isEmpty() && !file.empty())
+        throw ParseError(file + ": the scene is empty (it has no objects, or every object was ignored)");
     if (!volume::sampleDomain(*f, clip).isBounded())
         throw CLI::ValidationError("--box", f->describe() + " is unbounded: give --box x0,y0,z0,x1,y1,z1");
     return f;

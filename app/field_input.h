@@ -18,7 +18,11 @@ struct FieldInput {
     float voxel = 0.f;
     int resolution = 0;
     float halfWidth = 3.f;
+    std::vector<std::string> defines;  ///< --define NAME=VALUE for .scad files (OpenSCAD's -D)
 };
+
+/// --define NAME=VALUE (repeatable): OpenSCAD's -D, for .scad inputs.
+void addDefineOption(CLI::App* cmd, std::vector<std::string>& defines);
 
 /// --shape, --expr, --box, and (with `sampling`) --voxel, --resolution, --half-width.
 void addFieldOptions(CLI::App* cmd, FieldInput& in, bool sampling);

@@ -144,6 +144,8 @@ def check_model(scad, args):
         return row
     csg = open(base + ".csg").read()
     used = [u for u in UNSUPPORTED if re.search(r"\b" + u + r"\s*\(", csg)]
+    if re.search(r"_extrude\(file = ", csg):
+        used.append("DXF import")
     if used:
         row["status"] = "unsupported: " + ", ".join(used)
         return row
@@ -162,7 +164,8 @@ def check_model(scad, args):
     rc, log, t = run([args.isoforge, "mesh", base + ".csg", "--voxel", "%.9g" % voxel, "-o", out, "--quiet"], 600)
     row["isoforge_s"] = t
     if rc != 0:
-        row["status"] = "isoforge fails: " + log.strip().splitlines()[0][:100] if log.strip() else "isoforge fails"
+        msg = log.strip().splitlines()[0] if log.strip() else ""
+        row["status"] = "isoforge fails: " + msg.replace(base + ".csg", "X.csg")[:200]
         return row
     mine = read_ply(out)
     os.remove(out)
@@ -192,6 +195,10 @@ def main():
         print("openscad_corpus: openscad is not installed (Debian package openscad)", file=sys.stderr)
         return 2
     os.makedirs(args.cache, exist_ok=True)
+    # A copy of the executable, so that a rebuild during a long run does not pull it away.
+    copy = os.path.join(args.cache, "isoforge.bench")
+    subprocess.run(["cp", args.isoforge, copy], check=True)
+    args.isoforge = copy
     models = args.models
     if args.fast:
         lst = os.path.join(ROOT, "tests/data/openscad_fast.txt")

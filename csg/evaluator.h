@@ -44,7 +44,7 @@ private:
 
     void note(int depth, const std::string& what, const Statement& s);
     /// OpenSCAD's number of fragments of a circle of radius r; 0 for an exact smooth shape.
-    static int fragments(const Scope& scope, const Statement& s, double r);
+    int fragments(const Scope& scope, const Statement& s, double r);
     std::vector<FieldPtr> children(const Statement& s, const Scope& scope, int depth, Want want = Want::Solids);
     FieldPtr group(const Statement& s, const Scope& scope, int depth);
     FieldPtr transformed(const Statement& s, const Scope& scope, int depth, const glm::dmat4& m);

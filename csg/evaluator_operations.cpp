@@ -23,6 +23,8 @@ std::optional<FieldPtr> Evaluator::operation(const Call& site) {
     auto args = [&](std::vector<std::string> order) { return Args(s, scope, order); };
     if (n == "linear_extrude") {
         Args a = args({"height", "center", "convexity", "twist", "slices", "scale"});
+        if (a.has("file"))
+            throw a.error("file", "linear_extrude(file = ...) imports a DXF file, which is not supported (as import() is not)");
         const double twist = a.number("twist", 0.0), height = a.number("height", 100.0);
         glm::dvec3 sc = a.vec3("scale", glm::dvec3(1.0));
         note(depth, "linear_extrude", s);
@@ -40,6 +42,8 @@ std::optional<FieldPtr> Evaluator::operation(const Call& site) {
     }
     if (n == "rotate_extrude") {
         Args a = args({"angle", "convexity"});
+        if (a.has("file"))
+            throw a.error("file", "rotate_extrude(file = ...) imports a DXF file, which is not supported (as import() is not)");
         double angle = a.number("angle", 360.0);
         note(depth, "rotate_extrude", s);
         auto kids = children(s, scope, depth, Want::Profiles);
@@ -136,9 +140,24 @@ std::optional<FieldPtr> Evaluator::operation(const Call& site) {
         const Box3 b = g->bounds();
         if (!b.isBounded()) throw a.error("newsize", "resize() needs a bounded child");
         const glm::dvec3 size(b.size());
+        // OpenSCAD: a positive new size scales its axis (about the origin); with auto, the axes left
+        // at 0 take the smallest of the given scale factors.
+        glm::bvec3 autos(false);
+        if (const Value* av = a.raw("auto"); av && av->kind == Value::Vector) {
+            for (std::size_t k = 0; k < std::min<std::size_t>(3, av->v.size()); ++k)
+                autos[int(k)] = av->v[k].truthy();
+        } else if (av) {
+            autos = glm::bvec3(av->truthy());
+        }
         glm::dvec3 f(1.0);
+        double smallest = HUGE_VAL;
         for (int k = 0; k < 3; ++k)
-            if (ns[k] > 0) f[k] = ns[k] / size[k];
+            if (ns[k] > 0 && size[k] > 0) {
+                f[k] = ns[k] / size[k];
+                smallest = std::min(smallest, f[k]);
+            }
+        for (int k = 0; k < 3; ++k)
+            if (!(ns[k] > 0) && autos[k] && std::isfinite(smallest)) f[k] = smallest;
         return implicit::makeTransformed(g, glm::mat4(glm::scale(glm::dmat4(1.0), f)));
     }
     // --- booleans and groups

@@ -151,17 +151,25 @@ std::optional<FieldPtr> Evaluator::primitive3D(const Call& site) {
         int pl = s.line, pc = s.col;
         const Value* pts = a.raw("points", &pl, &pc);
         const Value* faces = a.has("faces") ? a.raw("faces") : a.raw("triangles");
-        if (!pts || !faces) throw EvalError{s.line, s.col, "polyhedron() needs points and faces"};
+        if (!pts || !faces || pts->kind != Value::Vector || faces->kind != Value::Vector)
+            return dropped(site, "polyhedron() without lists of points and faces");
         std::vector<glm::vec3> p;
         for (const auto& q : pts->v) {
-            if (q.kind != Value::Vector || q.v.size() != 3)
-                throw EvalError{pl, pc, "polyhedron points must be [x, y, z]"};
+            if (q.kind != Value::Vector || q.v.size() != 3 || q.v[0].kind != Value::Number ||
+                q.v[1].kind != Value::Number || q.v[2].kind != Value::Number ||
+                !std::isfinite(q.v[0].n + q.v[1].n + q.v[2].n))
+                return dropped(site, "polyhedron() point " + std::to_string(p.size()) + " is not [x, y, z] of finite numbers");
             p.emplace_back(q.v[0].n, q.v[1].n, q.v[2].n);
         }
         std::vector<std::vector<int>> f;
         for (const auto& q : faces->v) {
             f.emplace_back();
-            for (const auto& i : q.v) f.back().push_back(static_cast<int>(i.n));
+            if (q.kind != Value::Vector) return dropped(site, "polyhedron() face " + std::to_string(f.size() - 1) + " is not a list of point indices");
+            for (const auto& i : q.v) {
+                if (i.kind != Value::Number || !(i.n >= 0 && i.n < double(p.size())))
+                    return dropped(site, "polyhedron() face " + std::to_string(f.size() - 1) + " names a point that does not exist");
+                f.back().push_back(static_cast<int>(i.n));
+            }
         }
         FieldPtr poly;
         try {
@@ -202,7 +210,13 @@ std::optional<FieldPtr> Evaluator::shape2D(const Call& site) {
         const Value* pts = a.raw("points");
         if (!pts) throw EvalError{s.line, s.col, "polygon() needs points"};
         std::vector<glm::vec2> p;
-        for (const auto& q : pts->v) p.emplace_back(q.v.size() > 0 ? q.v[0].n : 0, q.v.size() > 1 ? q.v[1].n : 0);
+        if (pts->kind != Value::Vector) return dropped(site, "polygon() without a list of points");
+        for (const auto& q : pts->v) {
+            if (q.kind != Value::Vector || q.v.size() != 2 || q.v[0].kind != Value::Number ||
+                q.v[1].kind != Value::Number || !std::isfinite(q.v[0].n + q.v[1].n))
+                return dropped(site, "polygon() point " + std::to_string(p.size()) + " is not [x, y] of finite numbers");
+            p.emplace_back(q.v[0].n, q.v[1].n);
+        }
         std::vector<std::vector<int>> paths;
         if (const Value* pv = a.raw("paths"); pv && pv->kind == Value::Vector)
             for (const auto& q : pv->v) {

@@ -1,5 +1,6 @@
 #include "csg/scene.h"
 
+#include <cctype>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -8,6 +9,7 @@
 #include "csg/evaluator.h"
 #include "csg/lexer.h"
 #include "csg/nodes.h"
+#include "csg/openscad.h"
 #include "csg/parser.h"
 
 namespace isoforge::csg {
@@ -64,8 +66,22 @@ Scene parseScene(std::string_view text, const std::string& fileName) {
 }
 
 Scene readScene(const std::string& path) {
+    return readScene(path, {});
+}
+
+Scene readScene(const std::string& path, const std::vector<std::string>& defines) {
     std::error_code ec;
     if (std::filesystem::is_directory(path, ec)) throw IoError(path + ": is a directory, expected a scene file");
+    std::string ext = std::filesystem::path(path).extension().string();
+    for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    if (ext == ".scad") {
+        // Errors in the export name the model and the export's line, which the message shows.
+        ScadExport e = exportScad(path, defines);
+        Scene s = parse(e.csg, path + " (as CSG)", std::filesystem::path(path).parent_path());
+        e.messages.insert(e.messages.end(), s.warnings.begin(), s.warnings.end());
+        s.warnings = std::move(e.messages);
+        return s;
+    }
     std::ifstream in(path, std::ios::binary);
     if (!in) throw IoError(path + ": cannot open");
     std::stringstream s;

@@ -15,7 +15,11 @@ namespace isoforge::csg {
 struct FileLoc {
     std::string file;
     int line = 0, column = 0;
-    std::string toString() const { return file + ":" + std::to_string(line) + ":" + std::to_string(column); }
+    /// file:line:column, or file:line without a column, or the file alone without a line.
+    std::string toString() const {
+        if (line <= 0) return file;
+        return file + ":" + std::to_string(line) + (column > 0 ? ":" + std::to_string(column) : std::string());
+    }
 };
 
 struct Warning {
@@ -54,8 +58,11 @@ glm::vec4 parseColor(std::string name, bool& ok);
 /// @throw ParseError with one "file:line:column: message" line per error, each followed by the
 ///        source line and a caret under the spot.
 Scene parseScene(std::string_view text, const std::string& fileName);
-/// Reads a file (.isf, .csg, .scad without modules) and parses it; relative paths inside
+/// Reads a file (.isf, .csg, or .scad through OpenSCAD) and parses it; relative paths inside
 /// (vm("..."), volume("..."), mesh("...")) are relative to the file's directory.
 Scene readScene(const std::string& path);
+/// The same; a .scad file is first exported by OpenSCAD (csg/openscad.h) with `defines` (NAME=VALUE,
+/// OpenSCAD's -D), and OpenSCAD's messages come first among the warnings.
+Scene readScene(const std::string& path, const std::vector<std::string>& defines);
 
 }  // namespace isoforge::csg

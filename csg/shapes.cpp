@@ -165,7 +165,15 @@ public:
         const double mid = (std::floor(phi / step_) + 0.5) * step_;
         return static_cast<float>(p.x * std::cos(mid) + p.y * std::sin(mid) - apothem_);
     }
-    std::pair<glm::vec2, glm::vec2> extent() const { return {glm::vec2(-r_), glm::vec2(r_)}; }
+    /// The box of the vertices: exact (resize() and bounding boxes depend on it).
+    std::pair<glm::vec2, glm::vec2> extent() const {
+        glm::vec2 lo(r_), hi(-r_);
+        for (const glm::vec2& q : regularPolygon(r_, n_)) {
+            lo = glm::min(lo, q);
+            hi = glm::max(hi, q);
+        }
+        return {lo, hi};
+    }
     std::string describe() const override { return "circle($fn=" + std::to_string(n_) + ")"; }
 
 private:
@@ -227,7 +235,16 @@ public:
     Box3 bounds() const override {
         const Box3 c = child_->bounds();
         const float r = std::max(std::abs(c.min.x), std::abs(c.max.x));
-        return {glm::vec3(-r, -r, c.min.y), glm::vec3(r, r, c.max.y)};
+        if (!faceted_ || !full_ || !std::isfinite(r)) return {glm::vec3(-r, -r, c.min.y), glm::vec3(r, r, c.max.y)};
+        // Faceted: the farthest profile point traces a polygon whose vertices give the box exactly.
+        glm::vec2 lo(r), hi(-r);
+        const int n = static_cast<int>(std::lround(2.0 * M_PI / step_));
+        for (int j = 0; j < n; ++j) {
+            const glm::vec2 q(float(r * std::cos(j * step_)), float(r * std::sin(j * step_)));
+            lo = glm::min(lo, q);
+            hi = glm::max(hi, q);
+        }
+        return {glm::vec3(lo, c.min.y), glm::vec3(hi, c.max.y)};
     }
     std::string describe() const override { return "rotate_extrude(" + child_->describe() + ")"; }
     const implicit::Material* materialAt(const glm::vec3& p) const override { return child_->materialAt(p); }
