@@ -24,7 +24,8 @@ std::optional<FieldPtr> Evaluator::operation(const Call& site) {
     if (n == "linear_extrude") {
         Args a = args({"height", "center", "convexity", "twist", "slices", "scale"});
         if (a.has("file"))
-            throw a.error("file", "linear_extrude(file = ...) imports a DXF file, which is not supported (as import() is not)");
+            throw a.error("file",
+                          "linear_extrude(file = ...) imports a DXF file, which is not supported (as import() is not)");
         const double twist = a.number("twist", 0.0), height = a.number("height", 100.0);
         glm::dvec3 sc = a.vec3("scale", glm::dvec3(1.0));
         note(depth, "linear_extrude", s);
@@ -33,17 +34,21 @@ std::optional<FieldPtr> Evaluator::operation(const Call& site) {
         if (!(height > 0) || !std::isfinite(height))
             return dropped(site, "linear_extrude() with a zero, negative or non-finite height");
         if (!std::isfinite(twist)) throw a.error("twist", "linear_extrude twist must be finite");
-        if (!(sc.x >= 0 && sc.y >= 0) || !std::isfinite(sc.x + sc.y)) {
-            d_.warn(s.line, s.col, "linear_extrude() scale must be finite and not negative: 1 is used");
+        if (!std::isfinite(sc.x + sc.y)) {
+            d_.warn(s.line, s.col, "linear_extrude() scale must be finite: 1 is used");
             sc = glm::dvec3(1.0);
         }
+        sc = glm::max(sc, glm::dvec3(0.0));  // OpenSCAD takes a negative scale as 0
+        // A twist is continuous here; OpenSCAD builds it from slices with straight, triangulated walls
+        // (docs/openscad.md: the volumes differ by a few per cent for large twists per slice).
         return makeLinearExtrude(makeUnion(std::move(kids)), float(height), a.boolean("center", false), float(twist),
                                  glm::vec2(float(sc.x), float(sc.y)));
     }
     if (n == "rotate_extrude") {
         Args a = args({"angle", "convexity"});
         if (a.has("file"))
-            throw a.error("file", "rotate_extrude(file = ...) imports a DXF file, which is not supported (as import() is not)");
+            throw a.error("file",
+                          "rotate_extrude(file = ...) imports a DXF file, which is not supported (as import() is not)");
         double angle = a.number("angle", 360.0);
         note(depth, "rotate_extrude", s);
         auto kids = children(s, scope, depth, Want::Profiles);
@@ -144,8 +149,7 @@ std::optional<FieldPtr> Evaluator::operation(const Call& site) {
         // at 0 take the smallest of the given scale factors.
         glm::bvec3 autos(false);
         if (const Value* av = a.raw("auto"); av && av->kind == Value::Vector) {
-            for (std::size_t k = 0; k < std::min<std::size_t>(3, av->v.size()); ++k)
-                autos[int(k)] = av->v[k].truthy();
+            for (std::size_t k = 0; k < std::min<std::size_t>(3, av->v.size()); ++k) autos[int(k)] = av->v[k].truthy();
         } else if (av) {
             autos = glm::bvec3(av->truthy());
         }

@@ -158,16 +158,20 @@ std::optional<FieldPtr> Evaluator::primitive3D(const Call& site) {
             if (q.kind != Value::Vector || q.v.size() != 3 || q.v[0].kind != Value::Number ||
                 q.v[1].kind != Value::Number || q.v[2].kind != Value::Number ||
                 !std::isfinite(q.v[0].n + q.v[1].n + q.v[2].n))
-                return dropped(site, "polyhedron() point " + std::to_string(p.size()) + " is not [x, y, z] of finite numbers");
+                return dropped(
+                    site, "polyhedron() point " + std::to_string(p.size()) + " is not [x, y, z] of finite numbers");
             p.emplace_back(q.v[0].n, q.v[1].n, q.v[2].n);
         }
         std::vector<std::vector<int>> f;
         for (const auto& q : faces->v) {
             f.emplace_back();
-            if (q.kind != Value::Vector) return dropped(site, "polyhedron() face " + std::to_string(f.size() - 1) + " is not a list of point indices");
+            if (q.kind != Value::Vector)
+                return dropped(site,
+                               "polyhedron() face " + std::to_string(f.size() - 1) + " is not a list of point indices");
             for (const auto& i : q.v) {
                 if (i.kind != Value::Number || !(i.n >= 0 && i.n < double(p.size())))
-                    return dropped(site, "polyhedron() face " + std::to_string(f.size() - 1) + " names a point that does not exist");
+                    return dropped(site, "polyhedron() face " + std::to_string(f.size() - 1) +
+                                             " names a point that does not exist");
                 f.back().push_back(static_cast<int>(i.n));
             }
         }
@@ -214,7 +218,8 @@ std::optional<FieldPtr> Evaluator::shape2D(const Call& site) {
         for (const auto& q : pts->v) {
             if (q.kind != Value::Vector || q.v.size() != 2 || q.v[0].kind != Value::Number ||
                 q.v[1].kind != Value::Number || !std::isfinite(q.v[0].n + q.v[1].n))
-                return dropped(site, "polygon() point " + std::to_string(p.size()) + " is not [x, y] of finite numbers");
+                return dropped(site,
+                               "polygon() point " + std::to_string(p.size()) + " is not [x, y] of finite numbers");
             p.emplace_back(q.v[0].n, q.v[1].n);
         }
         std::vector<std::vector<int>> paths;

@@ -77,7 +77,12 @@ private:
             Statement s;
             s.line = peek().line;
             s.col = peek().col;
-            while (is("#") || is("!") || is("%") || is("*")) s.modifier = next().text[0];
+            // Several modifiers may stack ("%#"): disable (*) and background (%) win, as in OpenSCAD.
+            auto rank = [](char m) { return m == '*' ? 4 : m == '%' ? 3 : m == '!' ? 2 : m == '#' ? 1 : 0; };
+            while (is("#") || is("!") || is("%") || is("*")) {
+                const char m = next().text[0];
+                if (rank(m) > rank(s.modifier)) s.modifier = m;
+            }
             if (is("{")) {  // a bare block: a group
                 s.name = "group";
                 s.children = block();

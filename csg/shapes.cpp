@@ -126,8 +126,7 @@ public:
             const glm::vec2 sc = glm::max(glm::mix(glm::vec2(1.f), scale_, t), glm::vec2(1e-6f));
             d2 = child_->value(glm::vec3(q.x / sc.x, q.y / sc.y, 0.f)) * std::min(sc.x, sc.y) / lipschitz_;
         }
-        const glm::vec2 w(d2, std::abs(p.z - z0_ - 0.5f * h_) - 0.5f * h_);
-        return std::min(std::max(w.x, w.y), 0.f) + glm::length(glm::max(w, glm::vec2(0.f)));
+        return combine(d2, p.z);
     }
     Interval bound(const Box3& b) const override {
         // The extrusion of a distance is 1-Lipschitz when the 2D field is (and the twisted or
@@ -148,6 +147,11 @@ public:
     const implicit::Material* materialAt(const glm::vec3& p) const override { return child_->materialAt(p); }
 
 private:
+    /// The 2D value combined with the slab z0 <= z <= z0 + h (exact for an exact 2D distance).
+    float combine(float d2, float z) const {
+        const glm::vec2 w(d2, std::abs(z - z0_ - 0.5f * h_) - 0.5f * h_);
+        return std::min(std::max(w.x, w.y), 0.f) + glm::length(glm::max(w, glm::vec2(0.f)));
+    }
     FieldPtr child_;
     float z0_, h_, twist_;
     glm::vec2 scale_;
@@ -208,7 +212,9 @@ public:
             }
         }
     }
-    float value(const glm::vec3& p) const override {
+    float value(const glm::vec3& q) const override {
+        // A profile on the -x side sweeps the half-turn opposite: query the point turned by 180 degrees.
+        const glm::vec3 p = mirror_ ? glm::vec3(-q.x, -q.y, q.z) : q;
         const float inPlane = profile(p);
         if (full_) return inPlane;
         float phi = std::atan2(p.y, p.x);
@@ -240,7 +246,8 @@ public:
         glm::vec2 lo(r), hi(-r);
         const int n = static_cast<int>(std::lround(2.0 * M_PI / step_));
         for (int j = 0; j < n; ++j) {
-            const glm::vec2 q(float(r * std::cos(j * step_)), float(r * std::sin(j * step_)));
+            const float flip = mirror_ ? -1.f : 1.f;
+            const glm::vec2 q(flip * float(r * std::cos(j * step_)), flip * float(r * std::sin(j * step_)));
             lo = glm::min(lo, q);
             hi = glm::max(hi, q);
         }
@@ -254,7 +261,7 @@ private:
     /// the axis has its edge there, where the 2D sign is a coin toss, while in 3D the axis is inside.
     float child(float r, float z) const {
         r = std::max(r, axisOffset_);
-        return child_->value(glm::vec3(mirror_ ? -r : r, z, 0.f));
+        return child_->value(glm::vec3(mirror_ ? -r : r, z, 0.f));  // the profile's own side
     }
     /// The profile's value at the point's radius (smooth) or at its faceted radius r'.
     float profile(const glm::vec3& p) const {

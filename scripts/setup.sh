@@ -15,6 +15,8 @@ packages=(
   openimageio-tools
   # OpenVDB's own tools (vdb_print, vdb_render) for comparisons
   libopenvdb-tools
+  # OpenSCAD models (.scad input runs openscad) and its regression corpus (tests and bench/openscad_corpus.py)
+  openscad openscad-testing-data
   # tests and benchmarks
   libgtest-dev libbenchmark-dev
   # benchmark baselines (bench/vm_numpy.py)

@@ -227,5 +227,33 @@ if [ -d "$vols" ]; then
     grep -q "need 1000 bytes; the file has 100" "$tmp/err" && ok || bad "raw size error"
 fi
 
+# OpenSCAD models (.scad) through openscad; its messages on their lines; degenerate objects warned about.
+if command -v openscad >/dev/null; then
+    scad=$src/tests/data/openscad/example001.scad
+    expect_exit 0 "mesh .scad" "$bin" mesh "$scad" -o "$tmp/e1.stl" --resolution 64 -D '$fn=24'
+    expect_exit 0 "check the .scad mesh" "$bin" check --strict "$tmp/e1.stl"
+    grep -q "genus           5" "$tmp/out" && ok || bad "example001: a sphere through three cylinders has genus 5"
+    expect_exit 0 "check-scene .scad" "$bin" check-scene "$scad" --define '$fn=8'
+    grep -q "sphere (\$fn=8)" "$tmp/out" && ok || bad "check-scene shows the -D value reaching the tree"
+    grep -q "example001.scad: openscad: ECHO: version" "$tmp/out" && ok || bad "OpenSCAD's echo is shown"
+    expect_exit 0 "render .scad" "$bin" render "$scad" -o "$tmp/e1.png" --size 64x48
+    printf 'cube(1);\nsphere(;\n' >"$tmp/bad.scad"
+    expect_exit 1 "a .scad syntax error" "$bin" mesh "$tmp/bad.scad" -o "$tmp/bad.stl"
+    grep -q "bad.scad:2: openscad: ERROR: Parser error" "$tmp/err" && ok || bad "the syntax error names file:line"
+    [ ! -e "$tmp/bad.stl" ] && ok || bad "no output after a .scad error"
+    expect_exit 2 "a bad --define" "$bin" mesh "$scad" -D nodefinition -o "$tmp/x.stl"
+    ISOFORGE_OPENSCAD=/nonexistent/openscad expect_exit 1 "openscad missing" "$bin" mesh "$scad" -o "$tmp/x.stl"
+    grep -q "Debian package openscad" "$tmp/err" && ok || bad "the missing-openscad error names the package"
+    printf 'cube(0);\nlinear_extrude(1) sphere(1);\ntranslate([3, 0, 0]) cube(1);\n' >"$tmp/degenerate.scad"
+    expect_exit 0 "degenerate objects are ignored" "$bin" mesh "$tmp/degenerate.scad" -o "$tmp/d.stl" --resolution 32
+    grep -q "degenerate.scad (as CSG):1:1: cube() with a zero" "$tmp/err" && ok || bad "cube(0) is warned about on its line"
+    grep -q "ignoring the 3D object sphere()" "$tmp/err" && ok || bad "a 3D child of an extrusion is warned about"
+    printf 'cube(0);\n' >"$tmp/empty.scad"
+    expect_exit 1 "an empty model" "$bin" mesh "$tmp/empty.scad" -o "$tmp/e.stl"
+    grep -q "the scene is empty" "$tmp/err" && ok || bad "an empty model says so"
+else
+    echo "cli_test: openscad is not installed; the .scad checks are skipped"
+fi
+
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]
