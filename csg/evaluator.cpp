@@ -88,7 +88,10 @@ int Evaluator::fragments(const Scope& scope, const Statement& s, double r) {
         if (fn > 10000) throw EvalError{s.line, s.col, "$fn = " + std::to_string(fn) + " is more than 10,000 sides"};
         return std::max(3, static_cast<int>(fn));
     }
-    if (fn > 0) d_.warn(s.line, s.col, "$fn = inf is ignored: $fa and $fs decide the facets");
+    if (fn > 0) {  // inf: OpenSCAD's integer conversion ends at its minimum of 3 fragments
+        d_.warn(s.line, s.col, "$fn = inf gives 3 sides, as in OpenSCAD");
+        return 3;
+    }
     // $fn = 0 with $fa and $fs given (every OpenSCAD export carries them): OpenSCAD's own faceting,
     // ceil(max(min(360 / $fa, 2 pi r / $fs), 5)), so that the solid is the one OpenSCAD makes. Without
     // them (our own scenes), 0: the exact smooth shape.

@@ -474,11 +474,14 @@ FieldPtr makePolyhedron(std::vector<glm::vec3> points, const std::vector<std::ve
                 throw std::invalid_argument("polyhedron: face " + std::to_string(f) + " names point " +
                                             std::to_string(i) + ", but there are " + std::to_string(points.size()));
     }
-    // Concave and slightly non-planar faces are triangulated in their own plane.
+    // Concave and slightly non-planar faces are triangulated in their own plane. The sign comes from
+    // the winding number, not pseudonormals: users' polyhedra may touch themselves or fold slightly
+    // (a pentagon with a point on its own edge, in OpenSCAD's issue 1198, gave wrong signs and an
+    // open mesh through pseudonormals).
     std::vector<glm::uvec3> tris;
     for (const auto& face : faces)
         for (const glm::uvec3& tri : mesh::triangulateFace(points, face)) tris.push_back(tri);
-    return makeTriangleMeshField(std::move(points), std::move(tris), "polyhedron", nullptr, true);
+    return makeTriangleMeshField(std::move(points), std::move(tris), "polyhedron", nullptr, false);
 }
 
 FieldPtr makeTriangleMeshField(std::vector<glm::vec3> points, std::vector<glm::uvec3> triangles, std::string what,

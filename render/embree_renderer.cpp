@@ -402,6 +402,12 @@ Frame PreparedMeshes::render(const Look& look, const RenderOptions& o, RenderSta
             sctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;  // a 4x4 block's rays towards one light
             alignas(64) int sv[16];
             std::memcpy(sv, lit, sizeof sv);
+            // Embree asserts that every active ray is finite (a NaN origin or direction in one lane was
+            // seen to abort a test run once, not reproduced since): such a lane is left unlit instead.
+            for (int k = 0; k < 16; ++k) {
+                const float sum = sr.org_x[k] + sr.org_y[k] + sr.org_z[k] + sr.dir_x[k] + sr.dir_y[k] + sr.dir_z[k];
+                if (sv[k] && (!std::isfinite(sum) || std::isnan(sr.tfar[k]))) sv[k] = lit[k] = 0;
+            }
             rtcOccluded16(sv, shadowScene, &sctx, &sr);
             for (int k = 0; k < 16; ++k)
                 if (sr.tfar[k] < 0.f) lit[k] = 0;
