@@ -5,12 +5,12 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cctype>
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <regex>
 #include <sstream>
 
 #include "core/error.h"
@@ -44,16 +44,31 @@ struct TempDir {
     TempDir& operator=(const TempDir&) = delete;
 };
 
-/// OpenSCAD's "... in file F, line N" (F sometimes quoted), split off the message.
+/// OpenSCAD's "... in file F, line N" (F sometimes quoted, sometimes followed by ':'), split off the
+/// message. (Parsed by hand: std::regex trips GCC 12's maybe-uninitialized warnings under -O1.)
 Warning located(const std::string& path, std::string text) {
-    static const std::regex where(R"re(,? in file "?([^",]*)"?, line (\d+):?)re");
     Warning w;
     w.loc.file = path;
-    std::smatch m;
-    if (std::regex_search(text, m, where)) {
-        w.loc.file = m[1].str();
-        w.loc.line = std::atoi(m[2].str().c_str());
-        text = m.prefix().str() + m.suffix().str();
+    const std::size_t at = text.find(" in file ");
+    if (at != std::string::npos) {
+        std::size_t p = at + 9;
+        const bool quoted = p < text.size() && text[p] == '"';
+        if (quoted) ++p;
+        const std::size_t end = text.find(quoted ? '"' : ',', p);
+        const std::string lineTag = ", line ";
+        const std::size_t tag = end == std::string::npos ? end : text.find(lineTag, end);
+        if (tag != std::string::npos && tag <= end + 1) {
+            std::size_t q = tag + lineTag.size();
+            int line = 0;
+            while (q < text.size() && std::isdigit(static_cast<unsigned char>(text[q])) && line < 100000000)
+                line = line * 10 + (text[q++] - '0');
+            if (q < text.size() && text[q] == ':') ++q;
+            w.loc.file = text.substr(p, end - p);
+            w.loc.line = line;
+            std::size_t from = at;
+            if (from > 0 && text[from - 1] == ',') --from;
+            text = text.substr(0, from) + text.substr(q);
+        }
     }
     while (!text.empty() && (text.back() == ' ' || text.back() == ':')) text.pop_back();
     w.message = "openscad: " + text;

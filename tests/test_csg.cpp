@@ -418,6 +418,14 @@ TEST(OpenScad, PolyhedraWithConcaveFacesTouchingSolidsAndEitherOrientation) {
     two.pop_back();
     two += "]);";
     EXPECT_NEAR(meshVolume(two, 0.02f), 2.0, 0.01);
+    // OpenSCAD's issue 1198: non-planar quads and pentagons with a point on their own edge. Its volume
+    // by OpenSCAD's STL is 2.269375; through pseudonormals the mesh came out open (241 boundary edges).
+    const std::string issue1198 = R"(polyhedron(points = [[6.46538, 45.0434, -0.5185], [7.45793, 45.0119, -0.636215],
+        [7.45793, 45.9778, -0.895034], [6.46538, 46.0094, -0.77732], [6.46538, 45.5264, -0.64791],
+        [6.18882, 44.4605, -2.69418], [7.18137, 44.4289, -2.8119], [7.18137, 45.3948, -3.07072],
+        [6.18882, 45.4264, -2.953], [6.18882, 44.9434, -2.82359]],
+        faces = [[0, 1, 6, 5], [1, 2, 7, 6], [2, 3, 8, 7], [3, 4, 9, 8], [4, 0, 5, 9], [4, 3, 2, 1, 0], [5, 6, 7, 8, 9]]);)";
+    EXPECT_NEAR(meshVolume(issue1198, 0.01f), 2.269375, 0.005 * 2.269375);  // meshVolume checks it is closed
     // Slightly non-planar quads (a twisted box top) are triangulated, not lost.
     EXPECT_NEAR(meshVolume("polyhedron(points = [[0,0,0],[1,0,0],[1,1,0],[0,1,0],[0,0,1],[1,0,1.01],[1,1,1],[0,1,1]],"
                            " faces = [[0,1,2,3],[4,7,6,5],[0,4,5,1],[1,5,6,2],[2,6,7,3],[3,7,4,0]]);",
