@@ -163,16 +163,19 @@ private:
 /// point's own sector (exact inside, a lower bound outside), in O(1) whatever n.
 class RegularPolygon2D final : public Shape2D<RegularPolygon2D> {
 public:
-    RegularPolygon2D(float r, int n) : r_(r), n_(n), step_(2.0 * M_PI / n), apothem_(r * std::cos(M_PI / n)) {}
+    RegularPolygon2D(float r, int n, double phase)
+        : r_(r), n_(n), step_(2.0 * M_PI / n), phase_(phase), apothem_(r * std::cos(M_PI / n)) {}
     float eval(glm::vec2 p) const {
-        const double phi = std::atan2(double(p.y), double(p.x));
-        const double mid = (std::floor(phi / step_) + 0.5) * step_;
+        const double phi = std::atan2(double(p.y), double(p.x)) - phase_;
+        const double mid = phase_ + (std::floor(phi / step_) + 0.5) * step_;
         return static_cast<float>(p.x * std::cos(mid) + p.y * std::sin(mid) - apothem_);
     }
     /// The box of the vertices: exact (resize() and bounding boxes depend on it).
     std::pair<glm::vec2, glm::vec2> extent() const {
         glm::vec2 lo(r_), hi(-r_);
-        for (const glm::vec2& q : regularPolygon(r_, n_)) {
+        for (int j = 0; j < n_; ++j) {
+            const double a = phase_ + j * step_;
+            const glm::vec2 q(float(r_ * std::cos(a)), float(r_ * std::sin(a)));
             lo = glm::min(lo, q);
             hi = glm::max(hi, q);
         }
@@ -183,7 +186,7 @@ public:
 private:
     float r_;
     int n_;
-    double step_, apothem_;
+    double step_, phase_, apothem_;
 };
 
 /// A 2D child (its x >= 0 side, or its mirror image for profiles on the x <= 0 side) revolved about
@@ -322,10 +325,10 @@ FieldPtr makeLinearExtrude(FieldPtr c, float h, bool center, float twistDeg, glm
     if (!std::isfinite(twistDeg)) throw std::invalid_argument("linear_extrude: twist must be finite");
     return std::make_shared<LinearExtrude>(std::move(c), h, center, twistDeg, scale);
 }
-FieldPtr makeRegularPolygon2D(float r, int n) {
+FieldPtr makeRegularPolygon2D(float r, int n, double phase) {
     if (!(r > 0) || !std::isfinite(r) || n < 3)
         throw std::invalid_argument("circle: radius must be positive, $fn >= 3");
-    return std::make_shared<RegularPolygon2D>(r, n);
+    return std::make_shared<RegularPolygon2D>(r, n, phase);
 }
 FieldPtr makeRotateExtrude(FieldPtr c, float angleDeg, int segments, bool mirrored) {
     if (!(angleDeg != 0.f) || !std::isfinite(angleDeg))
@@ -337,16 +340,10 @@ FieldPtr makeFacetedSphere(float r, int n) {
     if (!(r > 0) || n < 3) throw std::invalid_argument("sphere: radius must be positive and $fn >= 3");
     // OpenSCAD: (n + 1) / 2 rings at polar angles 180 (i + 0.5) / rings, each a regular n-gon, joined
     // by flat quads at the same angles; the end rings are flat caps. That is the faceted revolve of
-    // the profile through the rings' radii, closed along the axis.
+    // the profile through the rings' radii closed along the axis, which is half of a regular polygon
+    // of 2 rings sides with its first vertex half a step off the +z axis: O(1) per point.
     const int rings = (n + 1) / 2;
-    std::vector<glm::vec2> profile;
-    for (int i = 0; i < rings; ++i) {
-        const double phi = M_PI * (i + 0.5) / rings;
-        profile.emplace_back(static_cast<float>(r * std::sin(phi)), static_cast<float>(r * std::cos(phi)));
-    }
-    profile.emplace_back(0.f, profile.back().y);
-    profile.insert(profile.begin(), glm::vec2(0.f, profile.front().y));
-    return makeRotateExtrude(makePolygon2D(std::move(profile)), 360.f, n);
+    return makeRotateExtrude(makeRegularPolygon2D(r, 2 * rings, M_PI / 2 - M_PI / (2 * rings)), 360.f, n);
 }
 
 FieldPtr makeFacetedCylinder(float r1, float r2, float h, bool center, int n) {

@@ -38,7 +38,8 @@ FieldPtr makePolygon2D(std::vector<glm::vec2> points, std::vector<std::vector<in
 /// A regular n-gon of circumradius r with a vertex on +x (OpenSCAD's circle($fn = n)).
 std::vector<glm::vec2> regularPolygon(float r, int n);
 /// The same n-gon as a field in O(1) per point (distance to the edge of the point's sector).
-FieldPtr makeRegularPolygon2D(float r, int n);
+/// `phase` turns it: the first vertex at that angle (radians) from +x.
+FieldPtr makeRegularPolygon2D(float r, int n, double phase = 0.0);
 
 /// 2D child extruded from z = 0 to height (or centred), as OpenSCAD does: turned by -twist * t
 /// degrees and scaled by lerp(1, scale, t) at height fraction t (the value is then a conservative
@@ -52,7 +53,7 @@ FieldPtr makeLinearExtrude(FieldPtr child2d, float height, bool center, float tw
 FieldPtr makeRotateExtrude(FieldPtr child2d, float angleDeg = 360.f, int segments = 0, bool mirrored = false);
 
 /// OpenSCAD's faceted sphere and cylinder for $fn = n > 0 (the same vertices and faces OpenSCAD
-/// makes), as faceted revolves and prisms: analytic, O(1) in n for cylinders, O(rings) for spheres.
+/// makes), as faceted revolves and prisms of regular polygons: analytic, O(1) per point whatever n.
 FieldPtr makeFacetedSphere(float r, int n);
 FieldPtr makeFacetedCylinder(float r1, float r2, float h, bool center, int n);
 
