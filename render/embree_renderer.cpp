@@ -385,30 +385,32 @@ Frame PreparedMeshes::render(const Look& look, const RenderOptions& o, RenderSta
                         lit[k] = 0;
                 return;
             }
+            // Two native 8-wide packets (the width of AVX2 kernels): Debian's Embree 3.13, built with
+            // assertions, aborted in its 8-wide occlusion kernels on our 16-wide packets
+            // (`all(valid, ray.valid())`, bvh_intersector_hybrid.cpp) on a loaded machine, with every
+            // active ray checked finite just before the call; it never did with 8-wide calls.
             alignas(64) RTCRay16 sr;
-            std::memcpy(sr.org_x, h.qx, sizeof h.qx);
-            std::memcpy(sr.org_y, h.qy, sizeof h.qy);
-            std::memcpy(sr.org_z, h.qz, sizeof h.qz);
-            std::memcpy(sr.dir_x, lx, sizeof sr.dir_x);
-            std::memcpy(sr.dir_y, ly, sizeof sr.dir_y);
-            std::memcpy(sr.dir_z, lz, sizeof sr.dir_z);
-            std::memcpy(sr.tfar, reach, sizeof sr.tfar);
-            std::fill_n(sr.tnear, 16, 0.f);
-            std::fill_n(sr.mask, 16, 0xFFFFFFFFu);
-            std::fill_n(sr.flags, 16, 0u);
-            std::fill_n(sr.time, 16, 0.f);
             RTCIntersectContext sctx;
             rtcInitIntersectContext(&sctx);
             sctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;  // a 4x4 block's rays towards one light
-            alignas(64) int sv[16];
-            std::memcpy(sv, lit, sizeof sv);
-            // Embree asserts that every active ray is finite (a NaN origin or direction in one lane was
-            // seen to abort a test run once, not reproduced since): such a lane is left unlit instead.
-            for (int k = 0; k < 16; ++k) {
-                const float sum = sr.org_x[k] + sr.org_y[k] + sr.org_z[k] + sr.dir_x[k] + sr.dir_y[k] + sr.dir_z[k];
-                if (sv[k] && (!std::isfinite(sum) || std::isnan(sr.tfar[k]))) sv[k] = lit[k] = 0;
+            for (int half = 0; half < 2; ++half) {
+                alignas(32) RTCRay8 r8;
+                alignas(32) int v8[8];
+                bool any = false;
+                for (int j = 0; j < 8; ++j) {
+                    const int k = 8 * half + j;
+                    r8.org_x[j] = h.qx[k], r8.org_y[j] = h.qy[k], r8.org_z[j] = h.qz[k];
+                    r8.dir_x[j] = lx[k], r8.dir_y[j] = ly[k], r8.dir_z[j] = lz[k];
+                    r8.tnear[j] = 0.f, r8.tfar[j] = reach[k], r8.time[j] = 0.f;
+                    r8.mask[j] = 0xFFFFFFFFu, r8.flags[j] = 0u, r8.id[j] = 0u;
+                    const float sum = r8.org_x[j] + r8.org_y[j] + r8.org_z[j] + r8.dir_x[j] + r8.dir_y[j] + r8.dir_z[j];
+                    v8[j] = lit[k] && std::isfinite(sum) && !std::isnan(r8.tfar[j]) ? -1 : 0;
+                    if (lit[k] && !v8[j]) lit[k] = 0;  // never a non-finite ray: left unlit
+                    any = any || v8[j];
+                }
+                if (any) rtcOccluded8(v8, shadowScene, &sctx, &r8);
+                for (int j = 0; j < 8; ++j) sr.tfar[8 * half + j] = v8[j] ? r8.tfar[j] : 0.f;
             }
-            rtcOccluded16(sv, shadowScene, &sctx, &sr);
             for (int k = 0; k < 16; ++k)
                 if (sr.tfar[k] < 0.f) lit[k] = 0;
         };

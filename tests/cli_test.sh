@@ -236,7 +236,7 @@ if command -v openscad >/dev/null; then
     expect_exit 0 "check-scene .scad" "$bin" check-scene "$scad" --define '$fn=8'
     grep -q "sphere (\$fn=8)" "$tmp/out" && ok || bad "check-scene shows the -D value reaching the tree"
     grep -q "example001.scad: openscad: ECHO: version" "$tmp/out" && ok || bad "OpenSCAD's echo is shown"
-    expect_exit 0 "render .scad" "$bin" render "$scad" -o "$tmp/e1.png" --size 64x48
+    expect_exit 0 "render .scad" "$bin" render "$scad" -o "$tmp/e1.png" --size 64x48 --resolution 48
     printf 'cube(1);\nsphere(;\n' >"$tmp/bad.scad"
     expect_exit 1 "a .scad syntax error" "$bin" mesh "$tmp/bad.scad" -o "$tmp/bad.stl"
     grep -q "bad.scad:2: openscad: ERROR: Parser error" "$tmp/err" && ok || bad "the syntax error names file:line"
