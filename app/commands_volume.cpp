@@ -552,8 +552,8 @@ namespace isoforge::app {
 
 void addCheckSceneCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
     auto file = std::make_shared<std::string>();
-    auto* cmd = app.add_subcommand("check-scene",
-                                   "Parse a scene (.isf, OpenSCAD .csg or .scad) and report its tree, bounds and warnings");
+    auto* cmd = app.add_subcommand(
+        "check-scene", "Parse a scene (.isf, OpenSCAD .csg or .scad) and report its tree, bounds and warnings");
     auto defines = std::make_shared<std::vector<std::string>>();
     cmd->add_option("scene", *file, "Scene file (.isf, .csg, or .scad through openscad)")->required();
     addDefineOption(cmd, *defines);
