@@ -1,5 +1,6 @@
 #include "csg/evaluator.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <glm/mat4x4.hpp>
@@ -11,16 +12,19 @@
 
 namespace isoforge::csg {
 
-/// Fields of the statements in order (assignments first update the scope, as OpenSCAD does).
 namespace {
-/// A 2D shape: bounded in x and y, the same along z.
-bool isPlanar(const FieldPtr& f) {
+enum class Dimension { Empty, Planar, Solid };
+/// Empty, 2D (bounded in x and y, the same along z) or anything else.
+Dimension dimensionOf(const FieldPtr& f) {
     const implicit::Box3 b = f->bounds();
-    return std::isinf(b.min.z) && std::isinf(b.max.z) && std::isfinite(b.min.x) && std::isfinite(b.max.x) &&
-           std::isfinite(b.min.y) && std::isfinite(b.max.y);
+    if (b.isEmpty()) return Dimension::Empty;
+    const bool planar = std::isinf(b.min.z) && std::isinf(b.max.z) && std::isfinite(b.min.x) &&
+                        std::isfinite(b.max.x) && std::isfinite(b.min.y) && std::isfinite(b.max.y);
+    return planar ? Dimension::Planar : Dimension::Solid;
 }
 }  // namespace
 
+/// Fields of the statements in order (assignments first update the scope, as OpenSCAD does).
 std::vector<FieldPtr> Evaluator::run(const std::vector<Statement>& list, Scope& scope, int depth, Want want) {
     for (const Statement& s : list)
         if (s.assignment) {
@@ -52,18 +56,17 @@ std::vector<FieldPtr> Evaluator::run(const std::vector<Statement>& list, Scope& 
     }
     // OpenSCAD's dimensions: an extrusion ignores 3D children, and 2D objects beside 3D ones are
     // ignored; both with a warning.
-    bool any3D = false;
-    for (const FieldPtr& f : out) any3D = any3D || (!isPlanar(f) && !f->bounds().isEmpty());
-    if (want == Want::Any || (want == Want::Solids && !any3D)) return out;
+    if (want == Want::Any) return out;
+    std::vector<Dimension> dims;
+    for (const FieldPtr& f : out) dims.push_back(dimensionOf(f));
+    const bool any3D = std::find(dims.begin(), dims.end(), Dimension::Solid) != dims.end();
+    if (want == Want::Solids && !any3D) return out;
     std::vector<FieldPtr> kept;
     for (std::size_t i = 0; i < out.size(); ++i) {
-        const bool planar = isPlanar(out[i]);
-        if (out[i]->bounds().isEmpty())
-            kept.push_back(out[i]);
-        else if (want == Want::Profiles && !planar)
+        if (want == Want::Profiles && dims[i] == Dimension::Solid)
             d_.warn(sites[i]->line, sites[i]->col,
                     "ignoring the 3D object " + sites[i]->name + "() inside a 2D operation, as OpenSCAD does");
-        else if (want == Want::Solids && planar)
+        else if (want == Want::Solids && dims[i] == Dimension::Planar)
             d_.warn(sites[i]->line, sites[i]->col,
                     "ignoring the 2D object " + sites[i]->name +
                         "() beside 3D objects (mixing 2D and 3D is not supported, as in OpenSCAD)");

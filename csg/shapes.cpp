@@ -126,7 +126,8 @@ public:
             const glm::vec2 sc = glm::max(glm::mix(glm::vec2(1.f), scale_, t), glm::vec2(1e-6f));
             d2 = child_->value(glm::vec3(q.x / sc.x, q.y / sc.y, 0.f)) * std::min(sc.x, sc.y) / lipschitz_;
         }
-        return combine(d2, p.z);
+        const glm::vec2 w(d2, std::abs(p.z - z0_ - 0.5f * h_) - 0.5f * h_);
+        return std::min(std::max(w.x, w.y), 0.f) + glm::length(glm::max(w, glm::vec2(0.f)));
     }
     Interval bound(const Box3& b) const override {
         // The extrusion of a distance is 1-Lipschitz when the 2D field is (and the twisted or
@@ -147,11 +148,6 @@ public:
     const implicit::Material* materialAt(const glm::vec3& p) const override { return child_->materialAt(p); }
 
 private:
-    /// The 2D value combined with the slab z0 <= z <= z0 + h (exact for an exact 2D distance).
-    float combine(float d2, float z) const {
-        const glm::vec2 w(d2, std::abs(z - z0_ - 0.5f * h_) - 0.5f * h_);
-        return std::min(std::max(w.x, w.y), 0.f) + glm::length(glm::max(w, glm::vec2(0.f)));
-    }
     FieldPtr child_;
     float z0_, h_, twist_;
     glm::vec2 scale_;
@@ -159,8 +155,8 @@ private:
     bool plain_ = true;
 };
 
-/// A regular n-gon of circumradius r with a vertex on +x: the signed distance to the edge of the
-/// point's own sector (exact inside, a lower bound outside), in O(1) whatever n.
+/// A regular n-gon of circumradius r, its first vertex at angle `phase` from +x: the signed distance
+/// to the edge of the point's own sector (exact inside, a lower bound outside), in O(1) whatever n.
 class RegularPolygon2D final : public Shape2D<RegularPolygon2D> {
 public:
     RegularPolygon2D(float r, int n, double phase)
@@ -310,14 +306,6 @@ FieldPtr makePolygon2D(std::vector<glm::vec2> points, std::vector<std::vector<in
                 throw std::invalid_argument("polygon: a path names point " + std::to_string(i) + ", but there are " +
                                             std::to_string(points.size()));
     return std::make_shared<Polygon2D>(std::move(points), std::move(paths));
-}
-std::vector<glm::vec2> regularPolygon(float r, int n) {
-    std::vector<glm::vec2> p;
-    for (int i = 0; i < n; ++i) {
-        const double a = 2.0 * M_PI * i / n;
-        p.emplace_back(static_cast<float>(r * std::cos(a)), static_cast<float>(r * std::sin(a)));
-    }
-    return p;
 }
 FieldPtr makeLinearExtrude(FieldPtr c, float h, bool center, float twistDeg, glm::vec2 scale) {
     if (!(h > 0)) throw std::invalid_argument("linear_extrude: height must be positive");

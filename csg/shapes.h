@@ -35,9 +35,8 @@ FieldPtr makeCircle2D(float r);
 FieldPtr makeRectangle2D(glm::vec2 min, glm::vec2 max);
 /// Polygon with optional holes: paths index points; without paths, the points in order. Even-odd rule.
 FieldPtr makePolygon2D(std::vector<glm::vec2> points, std::vector<std::vector<int>> paths = {});
-/// A regular n-gon of circumradius r with a vertex on +x (OpenSCAD's circle($fn = n)).
-std::vector<glm::vec2> regularPolygon(float r, int n);
-/// The same n-gon as a field in O(1) per point (distance to the edge of the point's sector).
+/// A regular n-gon of circumradius r with a vertex on +x (OpenSCAD's circle($fn = n)), as a field
+/// in O(1) per point (the distance to the edge of the point's sector).
 /// `phase` turns it: the first vertex at that angle (radians) from +x.
 FieldPtr makeRegularPolygon2D(float r, int n, double phase = 0.0);
 
