@@ -2,7 +2,6 @@
 #include <cstdio>
 #include <iostream>
 
-#include <OpenImageIO/oiioversion.h>
 #include <openvdb/version.h>
 #include <tbb/global_control.h>
 #include <tbb/version.h>
@@ -11,17 +10,26 @@
 #include "app/commands.h"
 #include "core/error.h"
 #include "render/embree_device.h"
+#include "render/image.h"
 
 namespace {
+
+std::string imageLibrary() {
+    try {
+        return isoforge::render::imageLibraryVersion();
+    } catch (const isoforge::IoError&) {
+        return "OpenImageIO (its module cannot be loaded: images cannot be read or written)";
+    }
+}
 
 std::string versionText() {
     std::string v = "isoforge " ISOFORGE_VERSION "\n";
     v += "  OpenVDB " + std::to_string(OPENVDB_LIBRARY_MAJOR_VERSION_NUMBER) + "." +
          std::to_string(OPENVDB_LIBRARY_MINOR_VERSION_NUMBER) + "." +
          std::to_string(OPENVDB_LIBRARY_PATCH_VERSION_NUMBER) + ", oneTBB " + std::to_string(TBB_VERSION_MAJOR) + "." +
-         std::to_string(TBB_VERSION_MINOR) + ", " + isoforge::render::embreeVersion() + ", OpenImageIO " +
-         OIIO_VERSION_STRING + ", GLM " + std::to_string(GLM_VERSION_MAJOR) + "." + std::to_string(GLM_VERSION_MINOR) +
-         "." + std::to_string(GLM_VERSION_PATCH);
+         std::to_string(TBB_VERSION_MINOR) + ", " + isoforge::render::embreeVersion() + ", " + imageLibrary() +
+         ", GLM " + std::to_string(GLM_VERSION_MAJOR) + "." + std::to_string(GLM_VERSION_MINOR) + "." +
+         std::to_string(GLM_VERSION_PATCH);
     return v;
 }
 

@@ -1,5 +1,5 @@
 #pragma once
-/// @file Images and their output through OpenImageIO.
+/// @file Images and their output through OpenImageIO, loaded on the first image read or written.
 
 #include <filesystem>
 #include <string>
@@ -27,5 +27,9 @@ void writeImage(const std::filesystem::path& path, const Image& image);
 /// Reads an image as linear float values (sRGB-decoded for 8/16-bit files).
 /// @throw IoError naming the file on failure.
 Image readImage(const std::filesystem::path& path);
+
+/// "OpenImageIO 2.4.7": the library images go through (loads it; see render/image_module.h).
+/// @throw IoError if it cannot be loaded.
+std::string imageLibraryVersion();
 
 }  // namespace isoforge::render
