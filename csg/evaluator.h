@@ -3,6 +3,7 @@
 /// evaluator.cpp runs statement lists and dispatches calls (and holds the scene statements);
 /// evaluator_shapes.cpp makes the leaf shapes, evaluator_operations.cpp the operations on children.
 
+#include <algorithm>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -31,6 +32,10 @@ public:
     enum class Want { Any, Solids, Profiles };
     /// Fields of the statements in order (assignments first update the scope, as OpenSCAD does).
     std::vector<FieldPtr> run(const std::vector<Statement>& list, Scope& scope, int depth, Want want = Want::Solids);
+    /// The top level of a scene: several objects there are a union, as in OpenSCAD.
+    std::vector<FieldPtr> runScene(const std::vector<Statement>& list, Scope& scope) {
+        return combining(list, [&] { return run(list, scope, 0); });
+    }
     FieldPtr rootOverride() const { return root_; }
     std::string outline;
 
@@ -42,6 +47,20 @@ private:
         int depth;
     };
 
+    /// Evaluates `body` (the statements `list`) counted as inside a boolean operation when the list
+    /// holds two or more objects: OpenSCAD runs CGAL on those, and it refuses some polyhedra there.
+    template <class Body>
+    std::vector<FieldPtr> combining(const std::vector<Statement>& list, Body body) {
+        const bool combines =
+            std::count_if(list.begin(), list.end(), [](const Statement& st) { return !st.assignment; }) >= 2;
+        booleans_ += combines;
+        struct Restore {
+            int& n;
+            bool c;
+            ~Restore() { n -= c; }
+        } restore{booleans_, combines};
+        return body();
+    }
     void note(int depth, const std::string& what, const Statement& s);
     /// OpenSCAD's number of fragments of a circle of radius r; 0 for an exact smooth shape.
     int fragments(const Scope& scope, const Statement& s, double r);
@@ -73,6 +92,7 @@ private:
     Scene& scene_;
     std::filesystem::path dir_;
     FieldPtr root_;
+    int booleans_ = 0;  ///< enclosing boolean operations of two or more objects
 };
 
 }  // namespace isoforge::csg

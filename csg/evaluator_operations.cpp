@@ -172,7 +172,7 @@ std::optional<FieldPtr> Evaluator::operation(const Call& site) {
         const float k = smooth ? float(a.number("k", 0.1)) : 0.f;
         if (smooth && !(k > 0)) throw a.error("k", "the blend radius k must be positive");
         note(depth, n, s);
-        auto kids = children(s, scope, depth);
+        auto kids = combining(s.children, [&] { return children(s, scope, depth); });
         if (kids.empty()) return nullptr;
         const std::string base = smooth ? n.substr(7) : n;
         if (base == "intersection") {

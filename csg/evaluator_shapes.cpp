@@ -175,6 +175,13 @@ std::optional<FieldPtr> Evaluator::primitive3D(const Call& site) {
                 f.back().push_back(static_cast<int>(i.n));
             }
         }
+        // OpenSCAD writes a polyhedron that stands alone as it is given, but converts it to a CGAL
+        // polyhedron inside a boolean operation, which fails (with an error; the object is skipped)
+        // unless its faces pair up edge to edge.
+        if (booleans_ > 0 && f.size() >= 4 && !facesPairUp(p, f))
+            return dropped(site,
+                           "polyhedron() is not closed or its faces are not oriented consistently, so OpenSCAD "
+                           "cannot use it in a boolean operation (\"The given mesh is not closed!\")");
         FieldPtr poly;
         try {
             poly = makePolyhedron(std::move(p), f);

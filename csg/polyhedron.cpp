@@ -82,8 +82,9 @@ public:
         : p_(std::move(pts)), t_(std::move(tris)), what_(std::move(what)) {
         for (const auto& t : t_)
             for (int k = 0; k < 3; ++k) box_ = box_.unite(Box3{p_[t[k]], p_[t[k]]});
-        buildBvh();
         closed_ = orient();
+        if (!closed_) capBoundary();
+        buildBvh();
         pseudonormals_ = closed_ && trusted;
         if (pseudonormals_)
             buildPseudonormals();
@@ -97,13 +98,13 @@ public:
         const float d = std::sqrt(c.d2);
         return inside(q, c, tri) ? -d : d;
     }
-    /// Batches (an 8^3 block at a time when sampling): distances per point; for closed meshes whose sign
-    /// comes from the winding number, a point inside the surface-free ball of an earlier point of the
-    /// batch (|p - q| < d(q)) takes that point's sign, since the winding number of a closed mesh is
-    /// constant off the surface. Only points near the surface pay for the winding number. (Open
-    /// meshes: the generalized winding number varies continuously, so every point computes its own.)
+    /// Batches (an 8^3 block at a time when sampling): distances per point; where the sign comes from
+    /// the winding number, a point inside the surface-free ball of an earlier point of the batch
+    /// (|p - q| < d(q)) takes that point's sign, since the winding number of a closed chain of
+    /// triangles (open meshes are capped first) is constant off the surface. Only points near the
+    /// surface pay for the winding number.
     void values(std::span<const glm::vec3> p, std::span<float> out) const override {
-        if (pseudonormals_ || !closed_) {
+        if (pseudonormals_) {
             for (std::size_t i = 0; i < p.size(); ++i) out[i] = value(p[i]);
             return;
         }
@@ -396,6 +397,54 @@ private:
         }
         return true;
     }
+    /// Closes an open or inconsistently oriented mesh for the winding number. Its boundary (each
+    /// directed edge counted +1, its reverse -1) is a cycle; coning it to one point per connected
+    /// piece (the piece's centroid) adds triangles whose boundary cancels it. The winding number of
+    /// the result is then a multiple of 4 pi off the triangles, so the sign changes only across the
+    /// surface and the zero set is closed. (Left open, the generalized winding number crosses 2 pi
+    /// away from the surface, where the field would jump from +d to -d with no zero between: an
+    /// open mesh out of the mesher, as OpenSCAD's issue 964 gave.) Small holes get small caps.
+    void capBoundary() {
+        std::map<std::pair<std::uint32_t, std::uint32_t>, int> net;  // ordered: deterministic caps
+        for (const auto& t : t_)
+            for (int k = 0; k < 3; ++k) {
+                const std::uint32_t a = t[k], b = t[(k + 1) % 3];
+                net[{std::min(a, b), std::max(a, b)}] += a < b ? 1 : -1;
+            }
+        std::vector<std::uint32_t> parent(p_.size());
+        std::iota(parent.begin(), parent.end(), 0u);
+        auto find = [&](std::uint32_t a) {
+            while (parent[a] != a) a = parent[a] = parent[parent[a]];
+            return a;
+        };
+        for (const auto& [e, n] : net)
+            if (n != 0) parent[find(e.first)] = find(e.second);
+        std::map<std::uint32_t, std::pair<glm::dvec3, int>> pieces;  // root -> sum of its points, count
+        std::vector<bool> counted(p_.size());
+        for (const auto& [e, n] : net)
+            if (n != 0)
+                for (std::uint32_t v : {e.first, e.second})
+                    if (!counted[v]) {
+                        counted[v] = true;
+                        auto& piece = pieces[find(v)];
+                        piece.first += glm::dvec3(p_[v]);
+                        ++piece.second;
+                    }
+        std::map<std::uint32_t, std::uint32_t> apex;
+        for (const auto& [root, piece] : pieces) {
+            apex[root] = static_cast<std::uint32_t>(p_.size());
+            p_.push_back(glm::vec3(piece.first / double(piece.second)));
+        }
+        for (const auto& [e, n] : net) {
+            if (n == 0) continue;
+            const std::uint32_t c = apex[find(e.first)];
+            // net n > 0: the edge runs first -> second n times more than back; cancel with second -> first.
+            const glm::uvec3 cap = n > 0 ? glm::uvec3(e.second, e.first, c) : glm::uvec3(e.first, e.second, c);
+            if (!(glm::length(glm::cross(p_[cap.y] - p_[cap.x], p_[cap.z] - p_[cap.x])) > 0.f))
+                continue;  // no solid angle anywhere off it
+            for (int i = 0; i < std::abs(n); ++i) t_.push_back(cap);
+        }
+    }
     bool sameDirection(std::uint32_t f, std::uint32_t g, std::uint64_t key) const {
         auto dir = [&](std::uint32_t face) {
             for (int k = 0; k < 3; ++k)
@@ -463,6 +512,27 @@ private:
 };
 
 }  // namespace
+
+bool facesPairUp(const std::vector<glm::vec3>& points, const std::vector<std::vector<int>>& faces) {
+    // Points are compared by position, as OpenSCAD's CGAL conversion merges them.
+    std::map<std::tuple<float, float, float>, int> ids;
+    std::vector<int> id(points.size());
+    for (std::size_t i = 0; i < points.size(); ++i)
+        id[i] = ids.emplace(std::make_tuple(points[i].x, points[i].y, points[i].z), int(ids.size())).first->second;
+    std::map<std::pair<int, int>, int> directed;
+    for (const auto& face : faces) {
+        std::vector<int> loop;
+        for (int i : face)
+            if (loop.empty() || id[i] != loop.back()) loop.push_back(id[i]);
+        while (loop.size() > 1 && loop.front() == loop.back()) loop.pop_back();
+        if (loop.size() < 3) continue;
+        for (std::size_t k = 0; k < loop.size(); ++k)
+            if (++directed[{loop[k], loop[(k + 1) % loop.size()]}] > 1) return false;
+    }
+    for (const auto& [edge, count] : directed)
+        if (!directed.count({edge.second, edge.first})) return false;
+    return !directed.empty();
+}
 
 FieldPtr makePolyhedron(std::vector<glm::vec3> points, const std::vector<std::vector<int>>& faces) {
     if (faces.size() < 4) throw std::invalid_argument("polyhedron: a closed polyhedron needs at least 4 faces");

@@ -40,7 +40,7 @@ Scene parse(std::string_view text, const std::string& file, const std::filesyste
     Scope global;
     global.vars["$fn"] = Value::num(0);
     std::vector<FieldPtr> top;
-    if (d.errors.empty()) top = ev.run(program, global, 0);
+    if (d.errors.empty()) top = ev.runScene(program, global);
     if (!d.errors.empty()) {
         std::string all;
         for (const auto& e : d.errors) all += (all.empty() ? "" : "\n") + e;

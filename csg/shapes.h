@@ -19,6 +19,10 @@ using implicit::FieldPtr;
 /// A closed polyhedron; faces are polygons of point indices, either orientation.
 /// @throw std::invalid_argument for bad indices or fewer than 4 faces.
 FieldPtr makePolyhedron(std::vector<glm::vec3> points, const std::vector<std::vector<int>>& faces);
+/// Whether every directed edge of the faces (points merged by position) is used once and its
+/// reverse once: a closed polyhedron with consistently oriented faces, inward or outward. OpenSCAD
+/// drops a polyhedron that fails this from every boolean operation ("The given mesh is not closed!").
+bool facesPairUp(const std::vector<glm::vec3>& points, const std::vector<std::vector<int>>& faces);
 /// The exact signed distance to a triangle mesh: distance through a bounding volume hierarchy.
 /// Sign: by default from the generalized winding number, evaluated hierarchically (Barill et al.
 /// 2018): right for closed meshes, self-intersecting ones and meshes with small holes. With

@@ -432,3 +432,28 @@ TEST(OpenScad, PolyhedraWithConcaveFacesTouchingSolidsAndEitherOrientation) {
                            0.01f),
                 1.0, 0.01);
 }
+
+TEST(OpenScad, FlippedAndOpenPolyhedraAsOpenScadTakesThem) {
+    // OpenSCAD's polyhedron-tests: an octahedron of volume 4/3 with its faces all flipped is still a
+    // solid; with one face flipped it stands alone as a solid, but inside a boolean operation OpenSCAD's
+    // CGAL conversion fails ("The given mesh is not closed!") and skips it.
+    const std::string points = "points = [[1,0,0],[-1,0,0],[0,1,0],[0,-1,0],[0,0,1],[0,0,-1]]";
+    const std::string allFlipped =
+        "polyhedron(" + points + ", faces = [[0,2,4],[0,5,2],[0,4,3],[0,3,5],[1,4,2],[1,2,5],[1,3,4],[1,5,3]]);";
+    const std::string oneFlipped =
+        "polyhedron(" + points + ", faces = [[0,4,2],[0,2,5],[0,3,4],[0,5,3],[1,2,4],[1,5,2],[1,3,4],[1,3,5]]);";
+    EXPECT_NEAR(meshVolume(allFlipped, 0.01f), 4.0 / 3.0, 0.01);
+    // Alone, the flipped face is capped back into place: the octahedron, closed.
+    EXPECT_NEAR(meshVolume(oneFlipped, 0.01f), 4.0 / 3.0, 0.01);
+    const std::string both = "union() { translate([5, 0, 0]) cube(1); " + oneFlipped + " }";
+    EXPECT_NEAR(meshVolume(both, 0.01f), 1.0, 0.01);
+    EXPECT_NE(warningsOf(both).find("not closed"), std::string::npos) << warningsOf(both);
+    EXPECT_EQ(warningsOf(oneFlipped), "");
+    // OpenSCAD's issue 964: a polyhedron with a missing face and a face across the others. The generalized
+    // winding number of an open mesh crosses 1/2 far from the surface, where the sign flipped with no
+    // zero between: the mesh came out open in 155 pieces. Its boundary is capped now: one closed piece.
+    const std::string issue964 =
+        "polyhedron(points = [[0,0,0],[10,0,0],[10,10,0],[0,10,0],[0,-20,20],[10,-20,20],[10,-20,30],[0,-20,30]],"
+        " faces = [[0,1,2,3],[4,5,6,7],[1,2,5,4],[2,3,6,5],[3,0,6,5],[0,1,4,7]]);";
+    EXPECT_GT(meshVolume(issue964, 0.25f), 100.0);  // meshVolume checks it is closed
+}
