@@ -1,9 +1,13 @@
 #include "mesh/triangulate.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
+#include <unordered_map>
 
 #include <glm/common.hpp>
+#include <glm/geometric.hpp>
 #include <glm/vec2.hpp>
 
 // Why our own: Debian 12 packages no C++ polygon triangulator of this size (mapbox's earcut only as
@@ -24,6 +28,119 @@ bool inTriangle(const glm::dvec2& a, const glm::dvec2& b, const glm::dvec2& c, c
     return cross(a, b, p) >= 0 && cross(b, c, p) >= 0 && cross(c, a, p) >= 0;
 }
 
+/// Whether d lies strictly inside the circle through the counter-clockwise triangle a, b, c.
+bool inCircle(const glm::dvec2& a, const glm::dvec2& b, const glm::dvec2& c, const glm::dvec2& d) {
+    const glm::dvec2 A = a - d, B = b - d, C = c - d;
+    const double la = glm::dot(A, A), lb = glm::dot(B, B), lc = glm::dot(C, C);
+    const double det = A.x * (B.y * lc - lb * C.y) - A.y * (B.x * lc - lb * C.x) + la * (B.x * C.y - B.y * C.x);
+    const double scale = std::max({la, lb, lc});
+    return det > 1e-9 * scale * scale;  // cocircular points (a rectangle) are left as they are
+}
+
+/// Lawson's flips to the constrained Delaunay triangulation of the loop in its projection, which
+/// is what OpenSCAD's libtess2 makes (TESS_CONSTRAINED_DELAUNAY_TRIANGLES). For planar faces any
+/// triangulation is the same surface; for non-planar ones the diagonal decides the solid (OpenSCAD's
+/// issue 1061, a stack of twisted quads: 2.5% of its volume). Edges of the loop are never flipped.
+void delaunayFlips(const std::vector<glm::dvec2>& p, std::vector<glm::uvec3>& tris) {
+    const std::size_t n = p.size();
+    if (tris.size() < 2) return;
+    auto key = [n](unsigned a, unsigned b) { return std::uint64_t(std::min(a, b)) * n + std::max(a, b); };
+    auto boundary = [n](unsigned a, unsigned b) { return (a + 1) % n == b || (b + 1) % n == a; };
+    std::unordered_map<std::uint64_t, std::array<std::size_t, 2>> sides;  // interior edge -> its two triangles
+    auto link = [&](std::size_t t) {
+        for (int k = 0; k < 3; ++k) {
+            const unsigned a = tris[t][k], b = tris[t][(k + 1) % 3];
+            if (boundary(a, b)) continue;
+            auto [it, added] = sides.try_emplace(key(a, b), std::array<std::size_t, 2>{t, t});
+            if (!added) it->second[1] = t;
+        }
+    };
+    for (std::size_t t = 0; t < tris.size(); ++t) link(t);
+    std::vector<std::uint64_t> work;
+    for (const auto& [k, s] : sides) work.push_back(k);
+    std::sort(work.begin(), work.end());   // a deterministic order
+    std::size_t budget = 16 * n * n + 64;  // Lawson's flips end; hostile loops end sooner
+    while (!work.empty() && budget-- > 0) {
+        const std::uint64_t e = work.back();
+        work.pop_back();
+        auto it = sides.find(e);
+        if (it == sides.end() || it->second[0] == it->second[1]) continue;
+        const std::size_t t1 = it->second[0], t2 = it->second[1];
+        const unsigned a = unsigned(e / n), b = unsigned(e % n);
+        auto opposite = [&](std::size_t t) {
+            for (int k = 0; k < 3; ++k)
+                if (tris[t][k] != a && tris[t][k] != b) return tris[t][k];
+            return a;
+        };
+        // Orient: (x, y, c) counter-clockwise in t1, d across the edge.
+        unsigned x = a, y = b;
+        for (int k = 0; k < 3; ++k)
+            if (tris[t1][k] == b && tris[t1][(k + 1) % 3] == a) std::swap(x, y);
+        const unsigned c = opposite(t1), d = opposite(t2);
+        if (c == d || !(cross(p[x], p[y], p[c]) > 0) || !(cross(p[y], p[x], p[d]) > 0)) continue;
+        // The new diagonal c-d must cross x-y: the quad x, d, y, c strictly convex.
+        if (!(cross(p[c], p[d], p[y]) > 0 && cross(p[d], p[c], p[x]) > 0)) continue;
+        if (!inCircle(p[x], p[y], p[c], p[d])) continue;
+        // x-c stays with t1 and y-d with t2; y-c moves to t2, x-d to t1; x-y becomes c-d.
+        auto move = [&](unsigned u, unsigned w, std::size_t from, std::size_t to) {
+            auto s = sides.find(key(u, w));
+            if (s == sides.end()) return;
+            for (auto& side : s->second)
+                if (side == from) side = to;
+        };
+        move(y, c, t1, t2);
+        move(x, d, t2, t1);
+        sides.erase(e);
+        sides[key(c, d)] = {t1, t2};
+        tris[t1] = glm::uvec3(x, d, c);
+        tris[t2] = glm::uvec3(d, y, c);
+        for (const auto& [u, w] : {std::pair{x, d}, {d, y}, {y, c}, {c, x}})
+            if (!boundary(u, w)) work.push_back(key(u, w));
+    }
+}
+
+/// The loop projected as libtess2 (OpenSCAD's tessellator) projects it: onto the coordinate plane
+/// across the longest axis of the normal of the largest triangle made by the two points furthest
+/// apart along the loop's widest axis and a third (libtess2's ComputeNormal, not Newell's normal:
+/// for non-planar faces the two can pick different planes, and the Delaunay diagonal with them).
+/// Mirrored so that the loop runs counter-clockwise.
+std::vector<glm::dvec2> libtessProjection(std::span<const glm::vec3> points, const std::vector<int>& v) {
+    auto at = [&](std::size_t k) { return glm::dvec3(points[std::size_t(v[k])]); };
+    std::size_t lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+    for (std::size_t k = 1; k < v.size(); ++k)
+        for (int i = 0; i < 3; ++i) {
+            if (at(k)[i] < at(lo[i])[i]) lo[i] = k;
+            if (at(k)[i] > at(hi[i])[i]) hi[i] = k;
+        }
+    int i = 0;
+    if (at(hi[1])[1] - at(lo[1])[1] > at(hi[0])[0] - at(lo[0])[0]) i = 1;
+    if (at(hi[2])[2] - at(lo[2])[2] > at(hi[i])[i] - at(lo[i])[i]) i = 2;
+    const glm::dvec3 d1 = at(lo[i]) - at(hi[i]);
+    glm::dvec3 normal(0, 0, 1);
+    double best = 0;
+    for (std::size_t k = 0; k < v.size(); ++k) {
+        const glm::dvec3 t = glm::cross(d1, at(k) - at(hi[i]));
+        if (glm::dot(t, t) > best) {
+            best = glm::dot(t, t);
+            normal = t;
+        }
+    }
+    int axis = 0;
+    if (std::abs(normal.y) > std::abs(normal.x)) axis = 1;
+    if (std::abs(normal.z) > std::abs(normal[axis])) axis = 2;
+    const int u = (axis + 1) % 3, w = (axis + 2) % 3;
+    std::vector<glm::dvec2> q(v.size());
+    double area = 0;
+    for (std::size_t k = 0; k < v.size(); ++k) q[k] = glm::dvec2(at(k)[u], at(k)[w]);
+    for (std::size_t k = 0; k < v.size(); ++k) {
+        const glm::dvec2 &a = q[k], &b = q[(k + 1) % v.size()];
+        area += a.x * b.y - a.y * b.x;
+    }
+    if (area < 0)
+        for (auto& x : q) x.y = -x.y;
+    return q;
+}
+
 }  // namespace
 
 std::vector<glm::uvec3> triangulateFace(std::span<const glm::vec3> points, std::span<const int> loop) {
@@ -37,13 +154,20 @@ std::vector<glm::uvec3> triangulateFace(std::span<const glm::vec3> points, std::
     if (v.size() < 3) return out;
     const std::size_t n = v.size();
     out.reserve(n - 2);
-    auto fan = [&](const std::vector<int>& ring) {
+    // Triangles are built on positions 0..n-1 of the loop, and named by point index at the end.
+    auto fan = [&](const std::vector<std::size_t>& ring) {
         for (std::size_t k = 1; k + 1 < ring.size(); ++k)
             out.emplace_back(unsigned(ring[0]), unsigned(ring[k]), unsigned(ring[k + 1]));
     };
-    if (n == 3) {
-        fan(v);
+    auto named = [&] {
+        for (auto& t : out) t = glm::uvec3(unsigned(v[t.x]), unsigned(v[t.y]), unsigned(v[t.z]));
         return out;
+    };
+    std::vector<std::size_t> whole(n);
+    for (std::size_t k = 0; k < n; ++k) whole[k] = k;
+    if (n == 3) {
+        fan(whole);
+        return named();
     }
 
     // Newell's normal, and the projection onto the coordinate plane it is most parallel to, turned
@@ -56,8 +180,8 @@ std::vector<glm::uvec3> triangulateFace(std::span<const glm::vec3> points, std::
     const glm::dvec3 an = glm::abs(normal);
     const int axis = an.x >= an.y && an.x >= an.z ? 0 : (an.y >= an.z ? 1 : 2);
     if (!(an[axis] > 0)) {  // no area (or not finite): keep the face as a fan, the mesh drops empty triangles
-        fan(v);
-        return out;
+        fan(whole);
+        return named();
     }
     int u = (axis + 1) % 3, w = (axis + 2) % 3;
     if (normal[axis] < 0) std::swap(u, w);
@@ -76,8 +200,9 @@ std::vector<glm::uvec3> triangulateFace(std::span<const glm::vec3> points, std::
     bool allConvex = true;
     for (std::size_t k = 0; k < n && allConvex; ++k) allConvex = cross(p[prev[k]], p[k], p[next[k]]) >= 0;
     if (allConvex) {
-        fan(v);
-        return out;
+        fan(whole);
+        delaunayFlips(libtessProjection(points, v), out);
+        return named();
     }
 
     // Only reflex (or straight) corners can lie inside an ear; keep them in a list.
@@ -96,7 +221,7 @@ std::vector<glm::uvec3> triangulateFace(std::span<const glm::vec3> points, std::
         return true;
     };
     auto clip = [&](std::size_t k) {
-        out.emplace_back(unsigned(v[prev[k]]), unsigned(v[k]), unsigned(v[next[k]]));
+        out.emplace_back(unsigned(prev[k]), unsigned(k), unsigned(next[k]));
         alive[k] = 0;
         next[prev[k]] = next[k];
         prev[next[k]] = prev[k];
@@ -137,10 +262,11 @@ std::vector<glm::uvec3> triangulateFace(std::span<const glm::vec3> points, std::
         }
         --remaining;
     }
-    std::vector<int> rest;
-    for (std::size_t i = 0, k = at; i < remaining; ++i, k = next[k]) rest.push_back(v[k]);
+    std::vector<std::size_t> rest;
+    for (std::size_t i = 0, k = at; i < remaining; ++i, k = next[k]) rest.push_back(k);
     fan(rest);
-    return out;
+    if (budget > 0) delaunayFlips(libtessProjection(points, v), out);
+    return named();
 }
 
 }  // namespace isoforge::mesh
