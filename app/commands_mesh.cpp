@@ -18,7 +18,7 @@ namespace isoforge::app {
 void addCheckCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
     struct Args {
         std::vector<std::string> files;
-        bool strict = false, repair = false;
+        bool strict = false, repair = false, selfIntersections = false;
         std::string output;
     };
     auto a = std::make_shared<Args>();
@@ -30,6 +30,9 @@ void addCheckCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                   "Drop degenerate and duplicate triangles, orient consistently and outward (cavities inward); "
                   "write the result with -o");
     cmd->add_option("-o,--output", a->output, "With --repair: the repaired mesh (.ply .obj .stl .glb)");
+    cmd->add_flag("--self-intersections", a->selfIntersections,
+                  "Also count pairs of triangles that intersect (other than along a shared edge or vertex; exact "
+                  "predicates) and name the first; with --strict, any makes the exit status 1");
     cmd->callback([&c, &g, a] {
         c.run = [&g, a] {
             if (a->repair && (a->output.empty() || a->files.size() != 1))
@@ -45,7 +48,7 @@ void addCheckCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                     if (!g.quiet) std::cout << f << ": repair\n" << r.toString();
                     mesh::writeMesh(a->output, m);
                 }
-                mesh::MeshReport r = mesh::check(m);
+                mesh::MeshReport r = mesh::check(m, {.selfIntersections = a->selfIntersections});
                 if (!g.quiet || !a->repair) std::cout << (a->repair ? a->output : f) << "\n" << r.toString();
                 allValid = allValid && r.isValidClosedSurface();
             }

@@ -49,7 +49,7 @@ std::optional<long long> MeshReport::genus() const {
     return twiceGenus / 2;
 }
 
-MeshReport check(const TriMesh& mesh) {
+MeshReport check(const TriMesh& mesh, const CheckOptions& options) {
     MeshReport r;
     const std::size_t nv = mesh.positions.size();
     r.vertices = nv;
@@ -169,6 +169,7 @@ MeshReport check(const TriMesh& mesh) {
 
     r.eulerCharacteristic = static_cast<long long>(r.usedVertices) - static_cast<long long>(r.edges) +
                             static_cast<long long>(r.triangles - r.outOfRangeIndices - r.repeatedIndexTriangles);
+    if (options.selfIntersections) r.selfIntersections = selfIntersections(mesh);
     return r;
 }
 
@@ -208,6 +209,16 @@ std::string MeshReport::toString() const {
     s.precision(7);
     s << "\narea            " << area << "\nvolume          " << volume;
     if (!isWatertight()) s << " (not closed: meaningless)";
+    if (selfIntersections) {
+        s << "\nself-intersect  ";
+        if (selfIntersections->pairs == 0)
+            s << "none";
+        else {
+            s << "YES: " << selfIntersections->pairs << (selfIntersections->limited ? "+" : "")
+              << " intersecting triangle pairs, first triangles " << selfIntersections->first->first << " and "
+              << selfIntersections->first->second;
+        }
+    }
     s << "\n";
     return s.str();
 }

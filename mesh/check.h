@@ -7,6 +7,7 @@
 #include <optional>
 #include <string>
 
+#include "mesh/self_intersections.h"
 #include "mesh/trimesh.h"
 
 namespace isoforge::mesh {
@@ -28,7 +29,8 @@ struct MeshReport {
     std::size_t negativeComponents = 0;  ///< closed components with negative enclosed volume (cavities, or inside-out)
     long long eulerCharacteristic = 0;   ///< V - E + F over used vertices
     double area = 0.0;
-    double volume = 0.0;  ///< signed; meaningful when watertight
+    double volume = 0.0;                                 ///< signed; meaningful when watertight
+    std::optional<SelfIntersections> selfIntersections;  ///< when asked for (CheckOptions)
 
     bool isWatertight() const { return boundaryEdges == 0 && nonManifoldEdges == 0 && outOfRangeIndices == 0; }
     bool isEdgeManifold() const { return nonManifoldEdges == 0; }
@@ -37,10 +39,11 @@ struct MeshReport {
     bool hasDegenerates() const {
         return repeatedIndexTriangles + zeroAreaTriangles + duplicateTriangles + outOfRangeIndices > 0;
     }
-    /// Closed, 2-manifold, consistently oriented, no degenerate triangles, positive volume.
+    /// Closed, 2-manifold, consistently oriented, no degenerate triangles, positive volume (and, when
+    /// checked, no self-intersections).
     bool isValidClosedSurface() const {
         return isWatertight() && isVertexManifold() && isOriented() && !hasDegenerates() && volume > 0.0 &&
-               triangles > 0;
+               triangles > 0 && (!selfIntersections || selfIntersections->pairs == 0);
     }
     /// Sum of the genera of the components, for a closed oriented 2-manifold (V - E + F = 2C - 2g).
     std::optional<long long> genus() const;
@@ -49,8 +52,12 @@ struct MeshReport {
     std::string toString() const;
 };
 
+struct CheckOptions {
+    bool selfIntersections = false;  ///< also count intersecting triangle pairs (mesh/self_intersections.h)
+};
+
 /// Checks `mesh`. O(T log T) time; never modifies the mesh; never throws on bad indices
 /// (they are counted in outOfRangeIndices).
-MeshReport check(const TriMesh& mesh);
+MeshReport check(const TriMesh& mesh, const CheckOptions& options = {});
 
 }  // namespace isoforge::mesh

@@ -9,6 +9,8 @@ packages=(
   # libraries
   libopenvdb-dev libboost-iostreams-dev libtbb-dev libembree-dev libopenimageio-dev libglm-dev zlib1g-dev
   libcli11-dev libmeshoptimizer-dev libtinygltf-dev
+  # exact predicates for the self-intersection check (mesh/self_intersections.cpp)
+  libcgal-dev
   # medical volumes: NIfTI (niftilib), DICOM (GDCM), NRRD (teem)
   libnifti2-dev libgdcm-dev libteem-dev
   # OpenImageIO's CMake export names its command-line tools, so they must exist
