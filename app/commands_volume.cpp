@@ -22,6 +22,7 @@
 #include "volume/labels.h"
 #include "volume/marching_cubes.h"
 #include "volume/sample.h"
+#include "volume/sharpen.h"
 #include "volume/vdb_io.h"
 #include "volume/voxelize.h"
 
@@ -182,7 +183,8 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
         std::string input, output, grid, inside = "auto", colors, labelMethod = "shared";
         float iso = 0.f;
         int smooth = 0;
-        bool normals = false, indexSpace = false, ascii = false, stats = false, labels = false, split = false;
+        bool normals = false, indexSpace = false, ascii = false, stats = false, labels = false, split = false,
+             sharp = false;
         FieldInput field;
         VolumeInput volume;
     };
@@ -219,6 +221,9 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                     "Which side is solid: below (level sets), above (fog, density, CT) or auto (by grid class)")
         ->check(CLI::IsMember({"auto", "below", "above"}));
     cmd->add_flag("--normals", a->normals, "Write per-vertex normals from the grid gradient");
+    cmd->add_flag("--sharp", a->sharp,
+                  "Feature vertices on sharp edges and corners (Hermite data from the field, or the grid's gradient); "
+                  "still closed, manifold, oriented and free of self-intersections");
     cmd->add_flag("--index-space", a->indexSpace, "Positions in voxel units instead of world units");
     cmd->add_flag("--ascii", a->ascii, "ASCII PLY instead of binary");
     cmd->add_flag("--stats", a->stats, "Print timings and a topology check of the result");
@@ -244,11 +249,30 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                          : a->inside == "above" ? volume::InsideSide::Above
                                                 : volume::InsideSide::Auto;
             opt.normals = a->normals;
-            opt.worldSpace = !a->indexSpace;
+            opt.worldSpace = !a->indexSpace && !a->sharp;
             opt.progress = g.quiet ? nullptr : &progress;
             volume::MeshingStats stats;
             const auto t1 = Clock::now();
             mesh::TriMesh m = volume::extractIsosurface(*grid, opt, &stats);
+            volume::SharpenStats sharpStats;
+            if (a->sharp) {
+                const openvdb::math::Transform& xform = grid->transform();
+                if (field) {
+                    auto value = [&field, &xform](const glm::vec3& p) {
+                        const openvdb::Vec3d w = xform.indexToWorld(openvdb::Vec3d(p.x, p.y, p.z));
+                        return field->value(glm::vec3(w.x(), w.y(), w.z()));
+                    };
+                    volume::sharpen(m, value, &sharpStats);
+                } else {
+                    volume::sharpenWithGrid(m, *grid, a->iso, volume::insideIsBelow(*grid, opt.inside), &sharpStats);
+                }
+                if (!a->indexSpace)
+                    tbb::parallel_for(std::size_t{0}, m.positions.size(), [&](std::size_t i) {
+                        const glm::vec3& p = m.positions[i];
+                        const openvdb::Vec3d w = xform.indexToWorld(openvdb::Vec3d(p.x, p.y, p.z));
+                        m.positions[i] = glm::vec3(w.x(), w.y(), w.z());
+                    });
+            }
             const double meshSeconds = std::chrono::duration<double>(Clock::now() - t1).count();
             if (m.empty())
                 std::cerr << "isoforge: warning: no surface at iso " << a->iso << " in grid '" << grid->getName()
@@ -275,13 +299,20 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                             withCommas(m.vertexCount()).c_str(), withCommas(m.triangleCount()).c_str(), meshSeconds,
                             a->output.c_str());
             }
+            if (a->sharp && !g.quiet)
+                std::printf(
+                    "sharp: %s feature vertices (%s flat patches, %s kept as marching cubes made them, %s "
+                    "cells with several patches; %s crossings on the field's zero)\n",
+                    withCommas(sharpStats.features).c_str(), withCommas(sharpStats.flat).c_str(),
+                    withCommas(sharpStats.kept).c_str(), withCommas(sharpStats.sharedCells).c_str(),
+                    withCommas(sharpStats.refinedVertices).c_str());
             if (a->stats) {
                 std::printf("read/sample %.3f s, mesh %.3f s (setup %.3f, count %.3f, write %.3f), save %.3f s\n",
                             readSeconds, meshSeconds, stats.secondsSetup, stats.secondsCount, stats.secondsWrite,
                             writeSeconds);
                 std::printf("leaves %s, blocks visited %s, blocks with surface %s\n", withCommas(stats.leaves).c_str(),
                             withCommas(stats.blocks).c_str(), withCommas(stats.surfaceBlocks).c_str());
-                std::cout << mesh::check(m).toString();
+                std::cout << mesh::check(m, {.selfIntersections = a->sharp}).toString();
             }
             return 0;
         };

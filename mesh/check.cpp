@@ -169,7 +169,10 @@ MeshReport check(const TriMesh& mesh, const CheckOptions& options) {
 
     r.eulerCharacteristic = static_cast<long long>(r.usedVertices) - static_cast<long long>(r.edges) +
                             static_cast<long long>(r.triangles - r.outOfRangeIndices - r.repeatedIndexTriangles);
-    if (options.selfIntersections) r.selfIntersections = selfIntersections(mesh);
+    if (options.selfIntersections) {
+        r.selfIntersectionsChecked = true;
+        r.selfIntersections = selfIntersections(mesh);
+    }
     return r;
 }
 
@@ -209,14 +212,14 @@ std::string MeshReport::toString() const {
     s.precision(7);
     s << "\narea            " << area << "\nvolume          " << volume;
     if (!isWatertight()) s << " (not closed: meaningless)";
-    if (selfIntersections) {
+    if (selfIntersectionsChecked) {
         s << "\nself-intersect  ";
-        if (selfIntersections->pairs == 0)
+        if (selfIntersections.pairs == 0)
             s << "none";
         else {
-            s << "YES: " << selfIntersections->pairs << (selfIntersections->limited ? "+" : "")
-              << " intersecting triangle pairs, first triangles " << selfIntersections->first->first << " and "
-              << selfIntersections->first->second;
+            s << "YES: " << selfIntersections.pairs << (selfIntersections.limited ? "+" : "")
+              << " intersecting triangle pairs, first triangles " << selfIntersections.first.first << " and "
+              << selfIntersections.first.second;
         }
     }
     s << "\n";

@@ -29,8 +29,9 @@ struct MeshReport {
     std::size_t negativeComponents = 0;  ///< closed components with negative enclosed volume (cavities, or inside-out)
     long long eulerCharacteristic = 0;   ///< V - E + F over used vertices
     double area = 0.0;
-    double volume = 0.0;                                 ///< signed; meaningful when watertight
-    std::optional<SelfIntersections> selfIntersections;  ///< when asked for (CheckOptions)
+    double volume = 0.0;                    ///< signed; meaningful when watertight
+    bool selfIntersectionsChecked = false;  ///< asked for (CheckOptions); then selfIntersections holds the count
+    SelfIntersections selfIntersections;
 
     bool isWatertight() const { return boundaryEdges == 0 && nonManifoldEdges == 0 && outOfRangeIndices == 0; }
     bool isEdgeManifold() const { return nonManifoldEdges == 0; }
@@ -43,7 +44,7 @@ struct MeshReport {
     /// checked, no self-intersections).
     bool isValidClosedSurface() const {
         return isWatertight() && isVertexManifold() && isOriented() && !hasDegenerates() && volume > 0.0 &&
-               triangles > 0 && (!selfIntersections || selfIntersections->pairs == 0);
+               triangles > 0 && (!selfIntersectionsChecked || selfIntersections.pairs == 0);
     }
     /// Sum of the genera of the components, for a closed oriented 2-manifold (V - E + F = 2C - 2g).
     std::optional<long long> genus() const;

@@ -3,7 +3,6 @@
 /// an edge or at a vertex they share.
 
 #include <cstddef>
-#include <optional>
 #include <utility>
 
 #include "mesh/trimesh.h"
@@ -11,9 +10,9 @@
 namespace isoforge::mesh {
 
 struct SelfIntersections {
-    std::size_t pairs = 0;                                     ///< intersecting pairs (counted up to the limit)
-    std::optional<std::pair<std::size_t, std::size_t>> first;  ///< the pair of smallest indices, if any
-    bool limited = false;                                      ///< counting stopped at the limit
+    std::size_t pairs = 0;                            ///< intersecting pairs (counted up to the limit)
+    std::pair<std::size_t, std::size_t> first{0, 0};  ///< the pair of smallest indices, when pairs > 0
+    bool limited = false;                             ///< counting stopped at the limit
 };
 
 /// Counts intersecting pairs of triangles: CGAL's box intersection over the triangles' bounding

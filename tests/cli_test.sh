@@ -255,5 +255,17 @@ else
     echo "cli_test: openscad is not installed; the .scad checks are skipped"
 fi
 
+# Feature vertices (--sharp): a box with a turned hole and the bundled sphere grid, checked for
+# closedness, orientation and self-intersections; the self-intersection check finds overlapping cubes.
+printf 'difference() { cube(10, center = true); rotate([30, 20, 10]) cube([4, 4, 20], center = true); }\n' >"$tmp/holed.csg"
+expect_exit 0 "mesh --sharp (scene)" "$bin" mesh "$tmp/holed.csg" --sharp --resolution 48 -o "$tmp/holed.ply"
+grep -q "feature vertices" "$tmp/out" && ok || bad "mesh --sharp: no summary of feature vertices"
+expect_exit 0 "check --self-intersections --strict (sharp)" "$bin" check --strict --self-intersections "$tmp/holed.ply"
+expect_exit 0 "mesh --sharp (grid)" "$bin" mesh "$src/data/sphere.vdb" --sharp -o "$tmp/sphere_sharp.ply"
+expect_exit 0 "check --self-intersections --strict (sharp grid)" "$bin" check --strict --self-intersections "$tmp/sphere_sharp.ply"
+printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nv .2 .2 -.5\nv .2 .2 .5\nv .9 .9 .2\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\nf 5 6 7\n' >"$tmp/pierced.obj"
+expect_exit 0 "check --self-intersections (pierced)" "$bin" check --self-intersections "$tmp/pierced.obj"
+grep -q "self-intersect  YES" "$tmp/out" && ok || bad "check --self-intersections: the piercing triangle not found"
+
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

@@ -2,6 +2,7 @@
 #include <cmath>
 
 #include <glm/common.hpp>
+#include <glm/gtc/matrix_transform.hpp>
 
 #include <gtest/gtest.h>
 
@@ -14,6 +15,7 @@
 #include "test_util.h"
 #include "volume/marching_cubes.h"
 #include "volume/sample.h"
+#include "volume/sharpen.h"
 #include "volume/vdb_io.h"
 
 using namespace isoforge;
@@ -476,4 +478,79 @@ TEST(OpenScad, NonPlanarFacesSplitAlongOpenScadsDiagonals) {
         "[19, 16, 20, 23], [20, 21, 25, 24], [21, 22, 26, 25], [22, 23, 27, 26], [23, 20, 24, 27], "
         "[3, 2, 1, 0], [24, 25, 26, 27]]);";
     EXPECT_NEAR(meshVolume(issue1061, 0.1f), 1876.80, 0.003 * 1876.80);
+}
+
+namespace {
+/// The scene meshed with feature vertices, in world units (voxel scale), checked like every mesh.
+mesh::TriMesh sharpMesh(const std::string& text, float voxel, volume::SharpenStats* stats = nullptr) {
+    const auto scene = csg::parseScene(text, "sharp.isf");
+    volume::SampleOptions o;
+    o.voxelSize = voxel;
+    auto grid = volume::sample(scene.root, o);
+    volume::MeshingOptions mo;
+    mo.worldSpace = false;
+    mesh::TriMesh m = volume::extractIsosurface(*grid, mo);
+    volume::sharpen(
+        m, [&](const glm::vec3& p) { return scene.root->value(p * voxel); }, stats);
+    for (auto& p : m.positions) p *= voxel;
+    return m;
+}
+double nearestVertex(const mesh::TriMesh& m, const glm::vec3& q) {
+    double best = 1e30;
+    for (const auto& p : m.positions) best = std::min(best, double(glm::length(p - q)));
+    return best;
+}
+}  // namespace
+
+TEST(Sharp, FeatureVerticesKeepEveryGuaranteeOnEveryShapeFamily) {
+    const std::vector<std::string> scenes = {
+        "difference() { cube([10, 10, 10], center = true); rotate([30, 20, 10]) cube([4, 4, 20], center = true); }",
+        "rotate([10, 20, 30]) cube([6, 5, 4], center = true);",
+        "union() { sphere(4); rotate([90, 0, 0]) cylinder(r = 2, h = 12, center = true); }",
+        "intersection() { sphere(5); rotate([15, 25, 0]) cube(7, center = true); }",
+        "rotate([5, 10, 0]) cylinder(r = 4, h = 6, $fn = 12);",
+        "rotate([0, 0, 10]) polyhedron(points = [[4,0,0],[-4,0,0],[0,4,0],[0,-4,0],[0,0,4],[0,0,-4]], faces = "
+        "[[0,4,2],[0,2,5],[0,3,4],[0,5,3],[1,2,4],[1,5,2],[1,4,3],[1,3,5]]);",
+        "torus(4, 1.5);",
+        "smooth_union(k = 1) { sphere(3); translate([4, 0, 0]) sphere(3); }",
+    };
+    for (const std::string& s : scenes)
+        for (float voxel : {0.37f, 0.19f, 0.11f}) {
+            volume::SharpenStats stats;
+            const mesh::TriMesh m = sharpMesh(s, voxel, &stats);
+            test::expectClosedSurface(m, s + " at " + std::to_string(voxel));  // includes no self-intersections
+        }
+    // Smooth shapes have nothing to sharpen: the torus and the blend stay as marching cubes made them.
+    volume::SharpenStats smooth;
+    sharpMesh("torus(4, 1.5);", 0.19f, &smooth);
+    EXPECT_EQ(smooth.features, 0u);
+}
+
+TEST(Sharp, CornersOfATurnedBoxGetTheirVertex) {
+    // A box turned off the grid: marching cubes cuts its corners by up to a voxel; the feature
+    // vertex of the corner cell is the corner itself (rank 3 Hermite data).
+    const std::string box = "rotate([10, 20, 30]) cube([6, 5, 4], center = true);";
+    const float voxel = 0.1f;
+    volume::SharpenStats stats;
+    const mesh::TriMesh sharp = sharpMesh(box, voxel, &stats);
+    EXPECT_GT(stats.features, 100u);
+    const auto scene = csg::parseScene(box, "b.isf");
+    volume::SampleOptions o;
+    o.voxelSize = voxel;
+    const mesh::TriMesh plain = volume::extractIsosurface(*volume::sample(scene.root, o));
+    const glm::mat4 turn = glm::rotate(glm::mat4(1.f), glm::radians(30.f), glm::vec3(0, 0, 1)) *
+                           glm::rotate(glm::mat4(1.f), glm::radians(20.f), glm::vec3(0, 1, 0)) *
+                           glm::rotate(glm::mat4(1.f), glm::radians(10.f), glm::vec3(1, 0, 0));
+    double sumSharp = 0, sumPlain = 0;
+    for (int k = 0; k < 8; ++k) {
+        const glm::vec3 corner(turn *
+                               glm::vec4((k & 1) ? 3.f : -3.f, (k & 2) ? 2.5f : -2.5f, (k & 4) ? 2.f : -2.f, 1.f));
+        sumSharp += nearestVertex(sharp, corner);
+        sumPlain += nearestVertex(plain, corner);
+    }
+    // Printed for the record; asserted: the corners come nearer (not yet every one onto its corner:
+    // some corner cells' feature points fall outside the cell, where the cell keeps its triangles).
+    std::printf("corners: mean distance to the nearest vertex %.3f voxels with --sharp, %.3f without\n",
+                sumSharp / 8 / voxel, sumPlain / 8 / voxel);
+    EXPECT_LT(sumSharp, 0.6 * sumPlain) << "features " << stats.features << ", kept " << stats.kept;
 }

@@ -127,29 +127,29 @@ TEST(MeshCheck, CountsSelfIntersectingPairs) {
     // Closed surfaces without intersections: none, and still valid.
     for (const TriMesh& m : {tetrahedron(), torus(24, 12), append(tetrahedron(), tetrahedron(glm::vec3(2.f)))}) {
         const MeshReport r = check(m, withPairs);
-        ASSERT_TRUE(r.selfIntersections.has_value());
-        EXPECT_EQ(r.selfIntersections->pairs, 0u);
+        ASSERT_TRUE(r.selfIntersectionsChecked);
+        EXPECT_EQ(r.selfIntersections.pairs, 0u);
         EXPECT_TRUE(r.isValidClosedSurface());
     }
     // Two overlapping tetrahedra in one mesh: closed and oriented, but their faces cross.
     const MeshReport both = check(append(tetrahedron(), tetrahedron(glm::vec3(0.25f))), withPairs);
     EXPECT_TRUE(both.isWatertight() && both.isOriented());
-    EXPECT_GT(both.selfIntersections->pairs, 0u);
+    EXPECT_GT(both.selfIntersections.pairs, 0u);
     EXPECT_FALSE(both.isValidClosedSurface());
-    EXPECT_FALSE(check(append(tetrahedron(), tetrahedron(glm::vec3(0.25f)))).selfIntersections.has_value());
+    EXPECT_FALSE(check(append(tetrahedron(), tetrahedron(glm::vec3(0.25f)))).selfIntersectionsChecked);
     // Sharing an edge: folded flat onto each other is an intersection, a dihedral angle is not.
     TriMesh fold;
     fold.positions = {{0, 0, 0}, {1, 0, 0}, {0.5f, 1, 0}, {0.5f, 0.5f, 0}, {0.5f, 1, 1}};
     fold.triangles = {{0, 1, 2}, {1, 0, 3}};
-    EXPECT_EQ(check(fold, withPairs).selfIntersections->pairs, 1u);
+    EXPECT_EQ(check(fold, withPairs).selfIntersections.pairs, 1u);
     fold.triangles = {{0, 1, 2}, {1, 0, 4}};
-    EXPECT_EQ(check(fold, withPairs).selfIntersections->pairs, 0u);
+    EXPECT_EQ(check(fold, withPairs).selfIntersections.pairs, 0u);
     // Sharing a vertex: a triangle piercing the other through its opposite edge.
     TriMesh pierce;
     pierce.positions = {{0, 0, 0}, {2, 0, 0}, {0, 2, 0}, {0.5f, 0.5f, -1}, {0.5f, 0.5f, 1}};
     pierce.triangles = {{0, 1, 2}, {0, 3, 4}};
     const MeshReport p = check(pierce, withPairs);
-    EXPECT_EQ(p.selfIntersections->pairs, 1u);
-    EXPECT_EQ(p.selfIntersections->first, std::make_pair(std::size_t{0}, std::size_t{1}));
+    EXPECT_EQ(p.selfIntersections.pairs, 1u);
+    EXPECT_EQ(p.selfIntersections.first, std::make_pair(std::size_t{0}, std::size_t{1}));
     EXPECT_NE(p.toString().find("self-intersect  YES: 1 intersecting triangle pairs"), std::string::npos);
 }

@@ -28,8 +28,8 @@ inline std::filesystem::path scratchDir(const std::string& name) {
 inline mesh::MeshReport expectClosedSurface(const mesh::TriMesh& m, const std::string& what) {
     mesh::MeshReport r = mesh::check(m, {.selfIntersections = true});
     EXPECT_GT(r.triangles, 0u) << what;
-    EXPECT_EQ(r.selfIntersections->pairs, 0u)
-        << what << ": first pair " << r.selfIntersections->first->first << ", " << r.selfIntersections->first->second;
+    EXPECT_EQ(r.selfIntersections.pairs, 0u)
+        << what << ": first pair " << r.selfIntersections.first.first << ", " << r.selfIntersections.first.second;
     EXPECT_EQ(r.boundaryEdges, 0u) << what;
     EXPECT_EQ(r.nonManifoldEdges, 0u) << what;
     EXPECT_EQ(r.nonManifoldVertices, 0u) << what;

@@ -1,0 +1,43 @@
+#pragma once
+/// @file Feature vertices for marching cubes meshes (`isoforge mesh --sharp`): one vertex per cell
+/// patch placed by a quadric error function on Hermite data, where it keeps every guarantee of
+/// the marching cubes mesh (docs/marching-cubes.md, "Sharp features", gives the argument).
+
+#include <cstddef>
+#include <functional>
+
+#include <openvdb/openvdb.h>
+#include <glm/vec3.hpp>
+
+#include "mesh/trimesh.h"
+
+namespace isoforge::volume {
+
+struct SharpenStats {
+    std::size_t patches = 0;          ///< single-patch cells looked at
+    std::size_t features = 0;         ///< patches given a feature vertex (rank 2: edge, rank 3: corner)
+    std::size_t flat = 0;             ///< left as they were: one normal direction, nothing to sharpen
+    std::size_t kept = 0;             ///< left as they were: the feature vertex would leave the cell or fold the fan
+    std::size_t sharedCells = 0;      ///< cells with two or more patches (left as they were)
+    std::size_t refinedVertices = 0;  ///< edge crossings moved onto the field's own zero
+};
+
+/// The field in index space (voxel units): negative inside, zero on the surface. Its gradient is
+/// taken by central differences of `value` 1e-3 voxels apart.
+using IndexField = std::function<float(const glm::vec3&)>;
+
+/// Sharpens `mesh` in place. It must be marching cubes' output in index space (extractIsosurface
+/// with worldSpace = false): vertices on grid edges, triangles within their cells, inside below.
+/// Edge crossings are first moved onto the zero of `value` along their edge (regula falsi), then each
+/// cell with one patch of rank 2 or 3 Hermite data gets the QEF's point (double precision, eigenvalues
+/// under 1/10 of the largest dropped, centred on the crossings' mean) as a fan apex, if the point lies
+/// inside the cell and the fan over the patch's boundary is a graph over the patch's plane (no fold).
+/// Otherwise the cell keeps its marching cubes triangles. Deterministic; new vertices are appended.
+void sharpen(mesh::TriMesh& mesh, const IndexField& value, SharpenStats* stats = nullptr);
+
+/// The same for a grid's iso-surface: Hermite data from the grid's trilinear interpolant (its
+/// crossings and gradient), the inside on the side `insideBelow` says.
+void sharpenWithGrid(mesh::TriMesh& mesh, const openvdb::FloatGrid& grid, float iso, bool insideBelow,
+                     SharpenStats* stats = nullptr);
+
+}  // namespace isoforge::volume
