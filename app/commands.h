@@ -23,6 +23,7 @@ struct Commands {
 void addInfoCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addCheckCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
+void addCompareCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addPrimitiveCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addStripsCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addSubdivideCommand(CLI::App& app, const GlobalOptions& g, Commands& c);

@@ -57,6 +57,7 @@ int main(int argc, char** argv) {
     app::addInfoCommand(app, global, commands);
     app::addMeshCommand(app, global, commands);
     app::addCheckCommand(app, global, commands);
+    app::addCompareCommand(app, global, commands);
     app::addPrimitiveCommand(app, global, commands);
     app::addStripsCommand(app, global, commands);
     app::addSubdivideCommand(app, global, commands);

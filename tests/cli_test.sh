@@ -267,5 +267,10 @@ printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nv .2 .2 -.5\nv .2 .2 .5\nv .9 .9 .2\
 expect_exit 0 "check --self-intersections (pierced)" "$bin" check --self-intersections "$tmp/pierced.obj"
 grep -q "self-intersect  YES" "$tmp/out" && ok || bad "check --self-intersections: the piercing triangle not found"
 
+# compare: a mesh against itself is 0 apart (to float precision); a missing file is exit 1.
+expect_exit 0 "compare (itself)" "$bin" compare "$tmp/holed.ply" "$tmp/holed.ply" --voxel 0.2
+awk '/^hausdorff/ { exit !($2 < 0.01) }' "$tmp/out" && ok || { bad "compare: a mesh is not 0 from itself"; cat "$tmp/out"; }
+expect_exit 1 "compare (missing file)" "$bin" compare "$tmp/holed.ply" "$tmp/nope.stl"
+
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

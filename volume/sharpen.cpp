@@ -220,28 +220,78 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& value, SharpenStats* statsOu
         }
         glm::dvec3 lambda;
         glm::dmat3 V;
-        jacobi(A, lambda, V);
-        const double top = std::max({lambda.x, lambda.y, lambda.z});
         int rank = 0;
         glm::dvec3 x(0.0);
-        for (int k = 0; k < 3; ++k) {
-            if (!(lambda[k] > 0.1 * top)) continue;
-            ++rank;
-            x += V[k] * (glm::dot(V[k], b) / lambda[k]);
-        }
+        auto solve = [&] {
+            jacobi(A, lambda, V);
+            const double top = std::max({lambda.x, lambda.y, lambda.z});
+            rank = 0;
+            x = glm::dvec3(0.0);
+            for (int k = 0; k < 3; ++k) {
+                if (!(lambda[k] > 0.1 * top)) continue;
+                ++rank;
+                x += V[k] * (glm::dot(V[k], b) / lambda[k]);
+            }
+        };
+        solve();
         if (rank < 2) {
             result[ci] = 2;
             return;
         }
-        const glm::dvec3 c = mass + x;
+        // A third face can cut a corner cell without crossing any of its edges: the crease point is
+        // then off the surface. Probe there: the field's nearest surface point and normal join the
+        // Hermite data (twice at most), which turns an edge point into the corner.
+        for (int probe = 0; probe < 2; ++probe) {
+            const glm::vec3 q(mass + x);
+            const float f = value(q);
+            const glm::vec3 gq = gradientAt(value, q);
+            const double len = glm::length(glm::dvec3(gq));
+            if (!(len > 0) || !std::isfinite(len)) break;
+            const double dist = double(f) / len;  // in voxels
+            if (!(std::abs(dist) > 0.02) || std::abs(dist) > 1.0) break;
+            const glm::dvec3 n = glm::dvec3(gq) / len;
+            const glm::dvec3 onSurface = glm::dvec3(q) - dist * n;
+            A += glm::outerProduct(n, n);
+            b += n * glm::dot(n, onSurface - mass);
+            solve();
+        }
+        glm::dvec3 c = mass + x;
         // The cell's lower corner: the smallest corner of its crossings' edges.
         glm::dvec3 cellLo = glm::dvec3(1e30);
         for (unsigned v : loop) cellLo = glm::min(cellLo, glm::dvec3(edges[v].corner));
-        for (int k = 0; k < 3; ++k)
-            if (!(c[k] > cellLo[k] + kMargin && c[k] < cellLo[k] + 1.0 - kMargin)) {
-                result[ci] = 3;
-                return;
+        const glm::dvec3 boxLo = cellLo + double(kMargin), boxHi = cellLo + (1.0 - double(kMargin));
+        auto inBox = [&](const glm::dvec3& q) {
+            return q.x >= boxLo.x && q.x <= boxHi.x && q.y >= boxLo.y && q.y <= boxHi.y && q.z >= boxLo.z &&
+                   q.z <= boxHi.z;
+        };
+        if (!inBox(c)) {
+            // The crease (rank 2: the line through c along the dropped eigenvector) may cross the cell
+            // away from c: take its point in the cell nearest c, which has the same error. Otherwise the
+            // nearest point of the cell (the cell's best feature point is on its boundary).
+            bool onCrease = false;
+            if (rank == 2) {
+                int k0 = 0;
+                for (int k = 1; k < 3; ++k)
+                    if (lambda[k] < lambda[k0]) k0 = k;
+                const glm::dvec3 d = V[k0];
+                double s0 = -1e300, s1 = 1e300;
+                for (int k = 0; k < 3; ++k) {
+                    if (std::abs(d[k]) < 1e-12) {
+                        if (c[k] < boxLo[k] || c[k] > boxHi[k]) s0 = 1e300;
+                        continue;
+                    }
+                    double a = (boxLo[k] - c[k]) / d[k], b = (boxHi[k] - c[k]) / d[k];
+                    if (a > b) std::swap(a, b);
+                    s0 = std::max(s0, a);
+                    s1 = std::min(s1, b);
+                }
+                if (s0 <= s1) {
+                    c += d * std::clamp(0.0, s0, s1);
+                    onCrease = inBox(c);
+                }
             }
+            if (!onCrease) c = glm::clamp(c, boxLo, boxHi);
+        }
         // No fold: every fan triangle turns the patch's way in the plane across the patch's normal,
         // and the loop goes once around the apex there.
         glm::dvec3 N(0.0);
