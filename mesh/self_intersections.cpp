@@ -19,19 +19,69 @@ using Box = CGAL::Box_intersection_d::Box_with_info_d<double, 3, std::size_t>;
 
 }  // namespace
 
+bool trianglesIntersect(const std::array<glm::vec3, 3>& pa, const std::array<unsigned, 3>& a,
+                        const std::array<glm::vec3, 3>& pb, const std::array<unsigned, 3>& b) {
+    // Points by vertex id, so that a shared vertex is one point (the first triangle's).
+    const std::array<Point, 6> pts{Point(pa[0].x, pa[0].y, pa[0].z), Point(pa[1].x, pa[1].y, pa[1].z),
+                                   Point(pa[2].x, pa[2].y, pa[2].z), Point(pb[0].x, pb[0].y, pb[0].z),
+                                   Point(pb[1].x, pb[1].y, pb[1].z), Point(pb[2].x, pb[2].y, pb[2].z)};
+    auto pt = [&](unsigned id) -> const Point& {
+        for (int k = 0; k < 3; ++k)
+            if (a[k] == id) return pts[k];
+        for (int k = 0; k < 3; ++k)
+            if (b[k] == id) return pts[3 + k];
+        return pts[0];
+    };
+    if (CGAL::collinear(pts[0], pts[1], pts[2]) || CGAL::collinear(pts[3], pts[4], pts[5])) return false;
+    int shared = 0;
+    int ia = -1, ib = -1;  // positions of one shared vertex in each
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+            if (a[i] == b[j]) {
+                ++shared;
+                ia = i;
+                ib = j;
+            }
+    bool hit = false;
+    if (shared >= 3) {
+        hit = true;  // the same triangle twice
+    } else if (shared == 2) {
+        // The vertices not shared: r of a, q of b. They fold onto each other when coplanar and on
+        // the same side of the common edge.
+        int ra = 0, rb = 0;
+        for (int i = 0; i < 3; ++i) {
+            if (std::find(b.begin(), b.end(), a[i]) == b.end()) ra = i;
+            if (std::find(a.begin(), a.end(), b[i]) == a.end()) rb = i;
+        }
+        const Point& p = pt(a[(ra + 1) % 3]);
+        const Point& q = pt(a[(ra + 2) % 3]);
+        const Point& r = pt(a[ra]);
+        const Point& s2 = pt(b[rb]);
+        hit = CGAL::coplanar(p, q, r, s2) && CGAL::coplanar_orientation(p, q, r, s2) == CGAL::POSITIVE;
+    } else if (shared == 1) {
+        const Point& v = pt(a[ia]);
+        const Point &a1 = pt(a[(ia + 1) % 3]), &a2 = pt(a[(ia + 2) % 3]);
+        const Point &b1 = pt(b[(ib + 1) % 3]), &b2 = pt(b[(ib + 2) % 3]);
+        hit = CGAL::do_intersect(K::Segment_3(a1, a2), K::Triangle_3(v, b1, b2)) ||
+              CGAL::do_intersect(K::Segment_3(b1, b2), K::Triangle_3(v, a1, a2));
+    } else {
+        hit = CGAL::do_intersect(K::Triangle_3(pt(a[0]), pt(a[1]), pt(a[2])),
+                                 K::Triangle_3(pt(b[0]), pt(b[1]), pt(b[2])));
+    }
+    return hit;
+}
+
 SelfIntersections selfIntersections(const TriMesh& mesh, std::size_t limit) {
     SelfIntersections result;
     const auto& P = mesh.positions;
-    std::vector<Point> points;
-    points.reserve(P.size());
-    for (const auto& p : P) points.emplace_back(p.x, p.y, p.z);
     std::vector<Box> boxes;
     boxes.reserve(mesh.triangles.size());
     for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
         const glm::uvec3 tri = mesh.triangles[t];
         if (tri.x >= P.size() || tri.y >= P.size() || tri.z >= P.size()) continue;
         if (tri.x == tri.y || tri.y == tri.z || tri.z == tri.x) continue;
-        const Point &a = points[tri.x], &b = points[tri.y], &c = points[tri.z];
+        const Point a(P[tri.x].x, P[tri.x].y, P[tri.x].z), b(P[tri.y].x, P[tri.y].y, P[tri.y].z),
+            c(P[tri.z].x, P[tri.z].y, P[tri.z].z);
         if (CGAL::collinear(a, b, c)) continue;
         const auto bb = a.bbox() + b.bbox() + c.bbox();
         boxes.emplace_back(bb, t);
@@ -43,42 +93,8 @@ SelfIntersections selfIntersections(const TriMesh& mesh, std::size_t limit) {
         std::size_t s = ba.info(), t = bb.info();
         if (s > t) std::swap(s, t);
         const glm::uvec3 A = mesh.triangles[s], B = mesh.triangles[t];
-        std::array<unsigned, 3> a{A.x, A.y, A.z}, b{B.x, B.y, B.z};
-        int shared = 0;
-        int ia = -1, ib = -1;  // positions of one shared vertex in each
-        for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 3; ++j)
-                if (a[i] == b[j]) {
-                    ++shared;
-                    ia = i;
-                    ib = j;
-                }
-        bool hit = false;
-        if (shared >= 3) {
-            hit = true;  // the same triangle twice
-        } else if (shared == 2) {
-            // The vertices not shared: r of a, q of b. They fold onto each other when coplanar and on
-            // the same side of the common edge.
-            int ra = 0, rb = 0;
-            for (int i = 0; i < 3; ++i) {
-                if (std::find(b.begin(), b.end(), a[i]) == b.end()) ra = i;
-                if (std::find(a.begin(), a.end(), b[i]) == a.end()) rb = i;
-            }
-            const Point& p = points[a[(ra + 1) % 3]];
-            const Point& q = points[a[(ra + 2) % 3]];
-            const Point& r = points[a[ra]];
-            const Point& s2 = points[b[rb]];
-            hit = CGAL::coplanar(p, q, r, s2) && CGAL::coplanar_orientation(p, q, r, s2) == CGAL::POSITIVE;
-        } else if (shared == 1) {
-            const Point& v = points[a[ia]];
-            const Point &a1 = points[a[(ia + 1) % 3]], &a2 = points[a[(ia + 2) % 3]];
-            const Point &b1 = points[b[(ib + 1) % 3]], &b2 = points[b[(ib + 2) % 3]];
-            hit = CGAL::do_intersect(K::Segment_3(a1, a2), K::Triangle_3(v, b1, b2)) ||
-                  CGAL::do_intersect(K::Segment_3(b1, b2), K::Triangle_3(v, a1, a2));
-        } else {
-            hit = CGAL::do_intersect(K::Triangle_3(points[a[0]], points[a[1]], points[a[2]]),
-                                     K::Triangle_3(points[b[0]], points[b[1]], points[b[2]]));
-        }
+        const std::array<glm::vec3, 3> pa{P[A.x], P[A.y], P[A.z]}, pb{P[B.x], P[B.y], P[B.z]};
+        const bool hit = trianglesIntersect(pa, {A.x, A.y, A.z}, pb, {B.x, B.y, B.z});
         if (!hit) return;
         found.emplace_back(s, t);
         if (found.size() >= limit) stop = true;

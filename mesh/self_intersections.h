@@ -2,6 +2,7 @@
 /// @file Self-intersection test of a triangle mesh: pairs of triangles that meet other than along
 /// an edge or at a vertex they share.
 
+#include <array>
 #include <cstddef>
 #include <utility>
 
@@ -21,5 +22,10 @@ struct SelfIntersections {
 /// when the opposite edge of one meets the other. Repeated-index and zero-area triangles are skipped
 /// (mesh::check counts them). Deterministic; O(T log T + K) for K candidate pairs.
 SelfIntersections selfIntersections(const TriMesh& mesh, std::size_t limit = ~std::size_t{0});
+
+/// The pair test of selfIntersections for two triangles given by their points and vertex ids (equal
+/// ids are a shared vertex). False when either is degenerate (collinear).
+bool trianglesIntersect(const std::array<glm::vec3, 3>& pa, const std::array<unsigned, 3>& a,
+                        const std::array<glm::vec3, 3>& pb, const std::array<unsigned, 3>& b);
 
 }  // namespace isoforge::mesh

@@ -1,5 +1,7 @@
 #include "volume/sharpen.h"
 
+#include "mesh/self_intersections.h"
+
 #include <algorithm>
 #include <array>
 #include <atomic>
@@ -81,6 +83,112 @@ struct Patch {
     std::vector<std::size_t> triangles;  // in mesh order
     std::vector<unsigned> loop;          // boundary vertices in the patch's orientation
 };
+
+/// Follows creases across cells (Kobbelt et al.'s edge flip): two fan triangles (c1, a, b) and
+/// (c2, b, a) of face-neighbouring cells, with feature vertices c1 and c2, become (c1, a, c2) and
+/// (c1, c2, b) when the field's normals at their centres agree better with the new pair. Both new
+/// triangles lie in the box of the two cells and meet its boundary only at a or b, so only the
+/// triangles of those two cells (and earlier flips into them) can cross them: each flip is tested
+/// against those with exact predicates and skipped if any pair intersects, or if c1-c2 is already an
+/// edge (the mesh would stop being manifold). Edges in a fixed order, each triangle flipped once.
+std::size_t flipCreases(const std::vector<glm::vec3>& P, std::vector<glm::uvec3>& tris,
+                        const std::vector<std::int64_t>& cellOf, unsigned firstApex, std::size_t cellCount,
+                        const IndexField& value) {
+    auto isApex = [&](unsigned v) { return v >= firstApex; };
+    auto edgeKey = [](unsigned a, unsigned b) { return (std::uint64_t(std::min(a, b)) << 32) | std::max(a, b); };
+    std::unordered_map<std::uint64_t, std::array<std::int64_t, 2>> edgeTris;
+    edgeTris.reserve(tris.size() * 2);
+    std::vector<std::vector<std::size_t>> inCell(cellCount);
+    for (std::size_t t = 0; t < tris.size(); ++t) {
+        for (int k = 0; k < 3; ++k) {
+            auto [it, added] = edgeTris.try_emplace(edgeKey(tris[t][k], tris[t][(k + 1) % 3]),
+                                                    std::array<std::int64_t, 2>{std::int64_t(t), -1});
+            if (!added) it->second[1] = std::int64_t(t);
+        }
+        if (cellOf[t] >= 0) inCell[std::size_t(cellOf[t])].push_back(t);
+    }
+    // Candidates: an edge between two fan triangles whose apexes are feature vertices of two cells.
+    std::vector<std::uint64_t> candidates;
+    for (const auto& [key, ts] : edgeTris) {
+        if (ts[1] < 0) continue;
+        const glm::uvec3 &t1 = tris[std::size_t(ts[0])], &t2 = tris[std::size_t(ts[1])];
+        if (isApex(t1.x) && isApex(t2.x) && t1.x != t2.x && !isApex(unsigned(key >> 32)) &&
+            !isApex(unsigned(key & 0xffffffffu)))
+            candidates.push_back(key);
+    }
+    std::sort(candidates.begin(), candidates.end());
+    auto unit = [](const glm::dvec3& v) {
+        const double l = glm::length(v);
+        return l > 0 ? v / l : glm::dvec3(0.0);
+    };
+    auto normalOf = [&](const glm::uvec3& t) {
+        return glm::cross(glm::dvec3(P[t.y]) - glm::dvec3(P[t.x]), glm::dvec3(P[t.z]) - glm::dvec3(P[t.x]));
+    };
+    auto misfit = [&](const glm::uvec3& t) {  // 1 - cos of the angle to the field's normal at the centre
+        const glm::vec3 centre = (P[t.x] + P[t.y] + P[t.z]) / 3.f;
+        return 1.0 - glm::dot(unit(normalOf(t)), unit(glm::dvec3(gradientAt(value, centre))));
+    };
+    std::vector<char> flipped(tris.size(), 0);
+    std::size_t flips = 0;
+    for (const std::uint64_t key : candidates) {
+        const auto ts = edgeTris.at(key);
+        if (ts[1] < 0) continue;
+        const std::size_t i1 = std::size_t(ts[0]), i2 = std::size_t(ts[1]);
+        if (flipped[i1] || flipped[i2]) continue;
+        // t1 = (c1, a, b) runs a -> b; t2 = (c2, b, a).
+        glm::uvec3 t1 = tris[i1], t2 = tris[i2];
+        if (!isApex(t1.x) || !isApex(t2.x)) continue;
+        const unsigned c1 = t1.x, a = t1.y, b = t1.z, c2 = t2.x;
+        if (!(t2.y == b && t2.z == a)) continue;
+        if (edgeTris.count(edgeKey(c1, c2))) continue;
+        const glm::uvec3 n1(c1, a, c2), n2(c1, c2, b);
+        const glm::dvec3 before = unit(normalOf(t1) + normalOf(t2));
+        if (!(glm::dot(unit(normalOf(n1)), before) > 0.2 && glm::dot(unit(normalOf(n2)), before) > 0.2)) continue;
+        if (!(misfit(n1) + misfit(n2) < misfit(t1) + misfit(t2) - 1e-4)) continue;
+        // Exact tests against everything in the two cells (and earlier flips into them).
+        bool clash = false;
+        auto against = [&](const glm::uvec3& nt) {
+            const std::array<glm::vec3, 3> pn{P[nt.x], P[nt.y], P[nt.z]};
+            for (std::int64_t cell : {cellOf[i1], cellOf[i2]}) {
+                if (cell < 0) return true;
+                for (std::size_t o : inCell[std::size_t(cell)]) {
+                    if (o == i1 || o == i2) continue;
+                    const glm::uvec3& ot = tris[o];
+                    if (mesh::trianglesIntersect(pn, {nt.x, nt.y, nt.z}, {P[ot.x], P[ot.y], P[ot.z]},
+                                                 {ot.x, ot.y, ot.z}))
+                        return true;
+                }
+            }
+            return false;
+        };
+        clash = against(n1) || against(n2) ||
+                mesh::trianglesIntersect({P[n1.x], P[n1.y], P[n1.z]}, {n1.x, n1.y, n1.z}, {P[n2.x], P[n2.y], P[n2.z]},
+                                         {n2.x, n2.y, n2.z});
+        if (clash) continue;
+        tris[i1] = n1;
+        tris[i2] = n2;
+        flipped[i1] = flipped[i2] = 1;
+        ++flips;
+        // Edges: a-b is gone, c1-c2 is new; c1-a... keep their triangles up to date.
+        edgeTris.erase(key);
+        edgeTris[edgeKey(c1, c2)] = {std::int64_t(i1), std::int64_t(i2)};
+        auto swapIn = [&](unsigned u, unsigned w, std::size_t from, std::size_t to) {
+            auto& e = edgeTris[edgeKey(u, w)];
+            for (auto& x : e)
+                if (x == std::int64_t(from)) x = std::int64_t(to);
+        };
+        // n1 = (c1, a, c2) holds c1-a (was t1's) and a-c2 (was t2's); n2 = (c1, c2, b) holds c2-b (t2's), b-c1 (t1's).
+        swapIn(a, c2, i2, i1);
+        swapIn(b, c1, i1, i2);
+        // Each new triangle now reaches into both cells.
+        for (std::int64_t cell : {cellOf[i1], cellOf[i2]}) {
+            auto& v = inCell[std::size_t(cell)];
+            for (std::size_t t : {i1, i2})
+                if (std::find(v.begin(), v.end(), t) == v.end()) v.push_back(t);
+        }
+    }
+    return flips;
+}
 
 }  // namespace
 
@@ -341,19 +449,27 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& value, SharpenStats* statsOu
             for (std::size_t t : patches[ci].triangles) patchOfTriangle[t] = std::int64_t(ci);
     }
     std::vector<glm::uvec3> out;
+    std::vector<std::int64_t> cellOfOut;  // each output triangle's cell (list index), -1 if none
+    std::vector<std::int64_t> cellOfTriangle(mesh.triangles.size(), -1);
+    for (std::size_t ci = 0; ci < list.size(); ++ci)
+        for (std::size_t t : list[ci].second) cellOfTriangle[t] = std::int64_t(ci);
     out.reserve(mesh.triangles.size() + 2 * stats.features);
+    const auto firstApex = static_cast<unsigned>(P.size());
+    std::vector<std::int64_t> apexCell;
     std::vector<char> emitted(list.size(), 0);
     const bool normals = mesh.normals.size() == nv, colors = mesh.colors.size() == nv;
     for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
         const std::int64_t ci = patchOfTriangle[t];
         if (ci < 0) {
             out.push_back(mesh.triangles[t]);
+            cellOfOut.push_back(cellOfTriangle[t]);
             continue;
         }
         if (emitted[ci]) continue;
         emitted[ci] = 1;
         const auto centre = static_cast<unsigned>(P.size());
         P.push_back(apex[ci]);
+        apexCell.push_back(ci);
         const auto& loop = patches[ci].loop;
         if (normals) {
             glm::vec3 n(0.f);
@@ -361,8 +477,12 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& value, SharpenStats* statsOu
             mesh.normals.push_back(glm::length(n) > 0 ? glm::normalize(n) : glm::vec3(0, 0, 1));
         }
         if (colors) mesh.colors.push_back(mesh.colors[loop[0]]);
-        for (std::size_t k = 0; k < loop.size(); ++k) out.emplace_back(centre, loop[k], loop[(k + 1) % loop.size()]);
+        for (std::size_t k = 0; k < loop.size(); ++k) {
+            out.emplace_back(centre, loop[k], loop[(k + 1) % loop.size()]);
+            cellOfOut.push_back(ci);
+        }
     }
+    stats.flips = flipCreases(P, out, cellOfOut, firstApex, list.size(), value);
     mesh.triangles = std::move(out);
     if (statsOut) *statsOut = stats;
 }

@@ -20,6 +20,7 @@ struct SharpenStats {
     std::size_t kept = 0;             ///< left as they were: the feature vertex would leave the cell or fold the fan
     std::size_t sharedCells = 0;      ///< cells with two or more patches (left as they were)
     std::size_t refinedVertices = 0;  ///< edge crossings moved onto the field's own zero
+    std::size_t flips = 0;            ///< edges flipped to follow a crease from feature vertex to feature vertex
 };
 
 /// The field in index space (voxel units): negative inside, zero on the surface. Its gradient is
