@@ -15,6 +15,7 @@
 #include "implicit/shape_spec.h"
 #include "mesh/check.h"
 #include "mesh/io.h"
+#include "mesh/simplify.h"
 #include "render/image.h"
 #include "render/slice.h"
 #include "render/volume_views.h"
@@ -185,6 +186,7 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
         int smooth = 0;
         bool normals = false, indexSpace = false, ascii = false, stats = false, labels = false, split = false,
              sharp = false;
+        double maxError = 0;
         FieldInput field;
         VolumeInput volume;
     };
@@ -224,6 +226,10 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
     cmd->add_flag("--sharp", a->sharp,
                   "Feature vertices on sharp edges and corners (Hermite data from the field, or the grid's gradient); "
                   "still closed, manifold, oriented and free of self-intersections");
+    cmd->add_option("--max-error", a->maxError,
+                    "Simplify: collapse edges while every vertex of the full mesh stays within this distance (world "
+                    "units) of the result; closed, manifold, oriented, no self-intersections")
+        ->check(CLI::PositiveNumber);
     cmd->add_flag("--index-space", a->indexSpace, "Positions in voxel units instead of world units");
     cmd->add_flag("--ascii", a->ascii, "ASCII PLY instead of binary");
     cmd->add_flag("--stats", a->stats, "Print timings and a topology check of the result");
@@ -273,6 +279,13 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                         m.positions[i] = glm::vec3(w.x(), w.y(), w.z());
                     });
             }
+            mesh::SimplifyStats simplifyStats;
+            const std::size_t fullTriangles = m.triangleCount();
+            if (a->maxError > 0) {
+                if (a->indexSpace)
+                    throw CLI::ValidationError("--max-error", "--max-error is in world units: not with --index-space");
+                simplifyStats = mesh::simplify(m, a->maxError);
+            }
             const double meshSeconds = std::chrono::duration<double>(Clock::now() - t1).count();
             if (m.empty())
                 std::cerr << "isoforge: warning: no surface at iso " << a->iso << " in grid '" << grid->getName()
@@ -301,18 +314,26 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
             }
             if (a->sharp && !g.quiet)
                 std::printf(
-                    "sharp: %s feature vertices (%s flat patches, %s kept as marching cubes made them, %s "
-                    "cells with several patches; %s crossings on the field's zero)\n",
-                    withCommas(sharpStats.features).c_str(), withCommas(sharpStats.flat).c_str(),
-                    withCommas(sharpStats.kept).c_str(), withCommas(sharpStats.sharedCells).c_str(),
-                    withCommas(sharpStats.refinedVertices).c_str());
+                    "sharp: %s feature vertices, %s crease flips (%s flat patches, %s kept as marching cubes made "
+                    "them, %s cells with several patches; %s crossings on the field's zero)\n",
+                    withCommas(sharpStats.features).c_str(), withCommas(sharpStats.flips).c_str(),
+                    withCommas(sharpStats.flat).c_str(), withCommas(sharpStats.kept).c_str(),
+                    withCommas(sharpStats.sharedCells).c_str(), withCommas(sharpStats.refinedVertices).c_str());
+            if (a->maxError > 0 && !g.quiet)
+                std::printf(
+                    "simplified within %g: %s -> %s triangles (%s collapses; refused: %s topology, %s turned "
+                    "triangles, %s too far, %s crossings)\n",
+                    a->maxError, withCommas(fullTriangles).c_str(), withCommas(m.triangleCount()).c_str(),
+                    withCommas(simplifyStats.collapses).c_str(), withCommas(simplifyStats.rejectedTopology).c_str(),
+                    withCommas(simplifyStats.rejectedFlip).c_str(), withCommas(simplifyStats.rejectedError).c_str(),
+                    withCommas(simplifyStats.rejectedCrossing).c_str());
             if (a->stats) {
                 std::printf("read/sample %.3f s, mesh %.3f s (setup %.3f, count %.3f, write %.3f), save %.3f s\n",
                             readSeconds, meshSeconds, stats.secondsSetup, stats.secondsCount, stats.secondsWrite,
                             writeSeconds);
                 std::printf("leaves %s, blocks visited %s, blocks with surface %s\n", withCommas(stats.leaves).c_str(),
                             withCommas(stats.blocks).c_str(), withCommas(stats.surfaceBlocks).c_str());
-                std::cout << mesh::check(m, {.selfIntersections = a->sharp}).toString();
+                std::cout << mesh::check(m, {.selfIntersections = a->sharp || a->maxError > 0}).toString();
             }
             return 0;
         };

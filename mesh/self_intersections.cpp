@@ -3,11 +3,13 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <vector>
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/box_intersection_d.h>
 #include <CGAL/intersections.h>
+#include <glm/geometric.hpp>
 
 namespace isoforge::mesh {
 
@@ -57,13 +59,59 @@ bool trianglesIntersect(const std::array<glm::vec3, 3>& pa, const std::array<uns
         const Point& q = pt(a[(ra + 2) % 3]);
         const Point& r = pt(a[ra]);
         const Point& s2 = pt(b[rb]);
-        hit = CGAL::coplanar(p, q, r, s2) && CGAL::coplanar_orientation(p, q, r, s2) == CGAL::POSITIVE;
+        // In double first: the other vertex clearly across the edge needs no exact arithmetic (flat
+        // regions make every neighbouring pair exactly coplanar, where the filter always fails).
+        const glm::dvec3 P0(p.x(), p.y(), p.z()), Q0(q.x(), q.y(), q.z()), R0(r.x(), r.y(), r.z()),
+            S0(s2.x(), s2.y(), s2.z());
+        const glm::dvec3 e = Q0 - P0, nr = glm::cross(e, R0 - P0), ns = glm::cross(e, S0 - P0);
+        if (glm::dot(nr, ns) < -1e-6 * glm::length(nr) * glm::length(ns))
+            hit = false;  // a fold needs both on one side
+        else
+            hit = CGAL::coplanar(p, q, r, s2) && CGAL::coplanar_orientation(p, q, r, s2) == CGAL::POSITIVE;
     } else if (shared == 1) {
         const Point& v = pt(a[ia]);
         const Point &a1 = pt(a[(ia + 1) % 3]), &a2 = pt(a[(ia + 2) % 3]);
         const Point &b1 = pt(b[(ib + 1) % 3]), &b2 = pt(b[(ib + 2) % 3]);
-        hit = CGAL::do_intersect(K::Segment_3(a1, a2), K::Triangle_3(v, b1, b2)) ||
-              CGAL::do_intersect(K::Segment_3(b1, b2), K::Triangle_3(v, a1, a2));
+        // In double first, for the coplanar pairs of flat regions (where CGAL's filter always fails):
+        // two triangles with a common apex in one plane overlap exactly when their angles at the apex
+        // overlap; clearly apart needs no exact arithmetic.
+        const glm::dvec3 V0(v.x(), v.y(), v.z()), A1(a1.x(), a1.y(), a1.z()), A2(a2.x(), a2.y(), a2.z()),
+            B1(b1.x(), b1.y(), b1.z()), B2(b2.x(), b2.y(), b2.z());
+        const glm::dvec3 na = glm::cross(A1 - V0, A2 - V0), nb = glm::cross(B1 - V0, B2 - V0);
+        const double la = glm::length(na), lb = glm::length(nb);
+        bool apart = false;
+        if (la > 0 && lb > 0 && glm::dot(na, nb) > (1.0 - 1e-12) * la * lb) {
+            const glm::dvec3 n = na / la;
+            const double size =
+                std::max({glm::length(A1 - V0), glm::length(A2 - V0), glm::length(B1 - V0), glm::length(B2 - V0)});
+            bool flat = true;
+            for (const glm::dvec3& w : {B1, B2}) flat = flat && std::abs(glm::dot(w - V0, n)) < 1e-9 * size;
+            if (flat) {
+                const glm::dvec3 x = glm::normalize(A1 - V0), y = glm::cross(n, x);
+                auto angle = [&](const glm::dvec3& w) { return std::atan2(glm::dot(w - V0, y), glm::dot(w - V0, x)); };
+                // Sector of a: [0, ta]; of b: [tb1, tb2] (counter-clockwise, each under pi).
+                const double ta = angle(A2), tb1 = angle(B1), tb2 = angle(B2);
+                auto inside = [&](double t) { return t > -1e-9 && t < ta + 1e-9; };
+                // b's sector runs counter-clockwise from tb1 by less than pi.
+                double span = tb2 - tb1;
+                if (span < 0) span += 2 * M_PI;
+                auto inB = [&](double t) {
+                    double d = t - tb1;
+                    if (d < 0) d += 2 * M_PI;
+                    return d > -1e-9 && d < span + 1e-9;
+                };
+                apart = !inside(tb1) && !inside(tb2) && !inB(0.0) && !inB(ta) && ta > 0 && span < M_PI;
+                if (apart) {
+                    // clear margins only
+                    for (double t : {tb1, tb2}) apart = apart && (t < -1e-6 || t > ta + 1e-6);
+                }
+            }
+        }
+        if (apart)
+            hit = false;
+        else
+            hit = CGAL::do_intersect(K::Segment_3(a1, a2), K::Triangle_3(v, b1, b2)) ||
+                  CGAL::do_intersect(K::Segment_3(b1, b2), K::Triangle_3(v, a1, a2));
     } else {
         hit = CGAL::do_intersect(K::Triangle_3(pt(a[0]), pt(a[1]), pt(a[2])),
                                  K::Triangle_3(pt(b[0]), pt(b[1]), pt(b[2])));
