@@ -236,12 +236,12 @@ private:
         // Placements by quadric error (the optimum, the midpoint, either end): the first that turns no
         // triangle over is taken.
         double cost;
-        const dvec3 best = placement(u, v, cost);
-        Quadric q = Q_[u];
-        q += Q_[v];
-        std::vector<std::pair<double, dvec3>> options{{cost, best}};
+        const dvec3 optimal = placement(u, v, cost);
+        Quadric both = Q_[u];
+        both += Q_[v];
+        std::vector<std::pair<double, dvec3>> options{{cost, optimal}};
         for (const dvec3& o : {0.5 * (P_[u] + P_[v]), P_[u], P_[v]})
-            if (o != best) options.emplace_back(std::max(q.error(o), 0.0), o);
+            if (o != optimal) options.emplace_back(std::max(both.error(o), 0.0), o);
         std::stable_sort(options.begin(), options.end(),
                          [](const auto& x, const auto& y) { return x.first < y.first; });
         dvec3 p(0.0);

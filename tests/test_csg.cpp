@@ -574,16 +574,16 @@ TEST(Sharp, CreasesRunAlongTheEdgesOfATurnedBox) {
                            glm::rotate(glm::mat4(1.f), glm::radians(10.f), glm::vec3(1, 0, 0));
     const auto toSharp = csg::makeTriangleMeshField(sharp.positions, sharp.triangles, "sharp", nullptr, true);
     const auto toPlain = csg::makeTriangleMeshField(plain.positions, plain.triangles, "plain", nullptr, true);
-    const glm::vec3 half(3.f, 2.5f, 2.f);
+    const glm::vec3 halfSize(3.f, 2.5f, 2.f);
     double sumSharp = 0, sumPlain = 0;
     int n = 0;
     for (int axis = 0; axis < 3; ++axis)
         for (int corner = 0; corner < 4; ++corner)
             for (int step = 1; step < 40; ++step) {  // the edge without its ends (corners are another test)
                 glm::vec3 p;
-                p[axis] = -half[axis] + 2.f * half[axis] * float(step) / 40.f;
-                p[(axis + 1) % 3] = (corner & 1) ? half[(axis + 1) % 3] : -half[(axis + 1) % 3];
-                p[(axis + 2) % 3] = (corner & 2) ? half[(axis + 2) % 3] : -half[(axis + 2) % 3];
+                p[axis] = -halfSize[axis] + 2.f * halfSize[axis] * float(step) / 40.f;
+                p[(axis + 1) % 3] = (corner & 1) ? halfSize[(axis + 1) % 3] : -halfSize[(axis + 1) % 3];
+                p[(axis + 2) % 3] = (corner & 2) ? halfSize[(axis + 2) % 3] : -halfSize[(axis + 2) % 3];
                 const glm::vec3 q(turn * glm::vec4(p, 1.f));
                 sumSharp += std::abs(toSharp->value(q));
                 sumPlain += std::abs(toPlain->value(q));

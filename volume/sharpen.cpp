@@ -388,10 +388,10 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& value, SharpenStats* statsOu
                         if (c[k] < boxLo[k] || c[k] > boxHi[k]) s0 = 1e300;
                         continue;
                     }
-                    double a = (boxLo[k] - c[k]) / d[k], b = (boxHi[k] - c[k]) / d[k];
-                    if (a > b) std::swap(a, b);
-                    s0 = std::max(s0, a);
-                    s1 = std::min(s1, b);
+                    double enter = (boxLo[k] - c[k]) / d[k], leave = (boxHi[k] - c[k]) / d[k];
+                    if (enter > leave) std::swap(enter, leave);
+                    s0 = std::max(s0, enter);
+                    s1 = std::min(s1, leave);
                 }
                 if (s0 <= s1) {
                     c += d * std::clamp(0.0, s0, s1);
