@@ -496,6 +496,26 @@ mesh::TriMesh sharpMesh(const std::string& text, float voxel, volume::SharpenSta
     for (auto& p : m.positions) p *= voxel;
     return m;
 }
+/// A box turned off the grid (10, 20, 30 degrees about x, y, z), meshed at voxel 0.1 with and
+/// without feature vertices, and the turn that places its corners.
+struct TurnedBox {
+    float voxel = 0.1f;
+    volume::SharpenStats stats;
+    mesh::TriMesh sharp, plain;
+    glm::mat4 turn;
+};
+TurnedBox turnedBox() {
+    const std::string box = "rotate([10, 20, 30]) cube([6, 5, 4], center = true);";
+    TurnedBox b;
+    b.sharp = sharpMesh(box, b.voxel, &b.stats);
+    volume::SampleOptions o;
+    o.voxelSize = b.voxel;
+    b.plain = volume::extractIsosurface(*volume::sample(csg::parseScene(box, "b.isf").root, o));
+    b.turn = glm::rotate(glm::mat4(1.f), glm::radians(30.f), glm::vec3(0, 0, 1)) *
+             glm::rotate(glm::mat4(1.f), glm::radians(20.f), glm::vec3(0, 1, 0)) *
+             glm::rotate(glm::mat4(1.f), glm::radians(10.f), glm::vec3(1, 0, 0));
+    return b;
+}
 double nearestVertex(const mesh::TriMesh& m, const glm::vec3& q) {
     double best = 1e30;
     for (const auto& p : m.positions) best = std::min(best, double(glm::length(p - q)));
@@ -530,18 +550,9 @@ TEST(Sharp, FeatureVerticesKeepEveryGuaranteeOnEveryShapeFamily) {
 TEST(Sharp, CornersOfATurnedBoxGetTheirVertex) {
     // A box turned off the grid: marching cubes cuts its corners by up to a voxel; the feature
     // vertex of the corner cell is the corner itself (rank 3 Hermite data).
-    const std::string box = "rotate([10, 20, 30]) cube([6, 5, 4], center = true);";
-    const float voxel = 0.1f;
-    volume::SharpenStats stats;
-    const mesh::TriMesh sharp = sharpMesh(box, voxel, &stats);
+    const TurnedBox b = turnedBox();
+    const auto& [voxel, stats, sharp, plain, turn] = b;
     EXPECT_GT(stats.features, 100u);
-    const auto scene = csg::parseScene(box, "b.isf");
-    volume::SampleOptions o;
-    o.voxelSize = voxel;
-    const mesh::TriMesh plain = volume::extractIsosurface(*volume::sample(scene.root, o));
-    const glm::mat4 turn = glm::rotate(glm::mat4(1.f), glm::radians(30.f), glm::vec3(0, 0, 1)) *
-                           glm::rotate(glm::mat4(1.f), glm::radians(20.f), glm::vec3(0, 1, 0)) *
-                           glm::rotate(glm::mat4(1.f), glm::radians(10.f), glm::vec3(1, 0, 0));
     double sumSharp = 0, sumPlain = 0;
     for (int k = 0; k < 8; ++k) {
         const glm::vec3 corner(turn *
@@ -560,18 +571,9 @@ TEST(Sharp, CreasesRunAlongTheEdgesOfATurnedBox) {
     // Points along the twelve edges of a box turned off the grid, and their distance to the mesh:
     // marching cubes cuts every edge by about a third of a voxel; feature vertices and crease flips
     // put the mesh's creases on them.
-    const std::string box = "rotate([10, 20, 30]) cube([6, 5, 4], center = true);";
-    const float voxel = 0.1f;
-    volume::SharpenStats stats;
-    const mesh::TriMesh sharp = sharpMesh(box, voxel, &stats);
+    const TurnedBox b = turnedBox();
+    const auto& [voxel, stats, sharp, plain, turn] = b;
     EXPECT_GT(stats.flips, 100u);
-    const auto scene = csg::parseScene(box, "b.isf");
-    volume::SampleOptions o;
-    o.voxelSize = voxel;
-    const mesh::TriMesh plain = volume::extractIsosurface(*volume::sample(scene.root, o));
-    const glm::mat4 turn = glm::rotate(glm::mat4(1.f), glm::radians(30.f), glm::vec3(0, 0, 1)) *
-                           glm::rotate(glm::mat4(1.f), glm::radians(20.f), glm::vec3(0, 1, 0)) *
-                           glm::rotate(glm::mat4(1.f), glm::radians(10.f), glm::vec3(1, 0, 0));
     const auto toSharp = csg::makeTriangleMeshField(sharp.positions, sharp.triangles, "sharp", nullptr, true);
     const auto toPlain = csg::makeTriangleMeshField(plain.positions, plain.triangles, "plain", nullptr, true);
     const glm::vec3 halfSize(3.f, 2.5f, 2.f);
