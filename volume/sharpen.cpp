@@ -272,7 +272,7 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& value, SharpenStats* statsOu
     std::vector<std::pair<std::uint64_t, std::vector<std::size_t>>> list(cells.begin(), cells.end());
     std::vector<Patch> patches(list.size());
     std::vector<glm::vec3> apex(list.size());
-    std::vector<char> sharpened(list.size(), 0), result(list.size(), 0);  // result: 1 feature, 2 flat, 3 kept, 4 shared
+    std::vector<char> result(list.size(), 0);  // 1 feature vertex, 2 flat, 3 kept, 4 several patches
     tbb::parallel_for(std::size_t{0}, list.size(), [&](std::size_t ci) {
         const auto& tris = list[ci].second;
         if (std::binary_search(ambiguous.begin(), ambiguous.end(), list[ci].first)) {
@@ -433,7 +433,6 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& value, SharpenStats* statsOu
         patches[ci].triangles = tris;
         patches[ci].loop = std::move(loop);
         apex[ci] = glm::vec3(c);
-        sharpened[ci] = 1;
         result[ci] = 1;
     });
 
@@ -445,7 +444,7 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& value, SharpenStats* statsOu
         stats.flat += result[ci] == 2;
         stats.kept += result[ci] == 3;
         stats.sharedCells += result[ci] == 4;
-        if (sharpened[ci])
+        if (result[ci] == 1)
             for (std::size_t t : patches[ci].triangles) patchOfTriangle[t] = std::int64_t(ci);
     }
     std::vector<glm::uvec3> out;
