@@ -17,7 +17,8 @@ cp examples/*.isf tests/data/openscad/*.csg "$corpus"/ 2>/dev/null || true
 for f in build/openscad-corpus/*.csg build/openscad-corpus-fast/*.csg; do [ -f "$f" ] && cp "$f" "$corpus"/; done
 awk -v dir="$corpus" '/^```scad/ { n++; f = sprintf("%s/doc%02d.isf", dir, n); inside = 1; next }
     /^```/ { inside = 0; next } inside { print >> f }' docs/scene-language.md
-export ASAN_OPTIONS=detect_leaks=1:fast_unwind_on_malloc=0
+# intercept_tls_get_addr=0: see scripts/test.sh (a GCC <= 13 runtime flake with dlopen'ed modules).
+export ASAN_OPTIONS=detect_leaks=1:fast_unwind_on_malloc=0:intercept_tls_get_addr=0
 export LSAN_OPTIONS=suppressions=$PWD/tests/lsan.supp
 # Bounded: total time, input length, per-input time and memory.
 build-fuzz/fuzz_scene "$corpus" -max_total_time="$seconds" -max_len=4096 -timeout=10 -rss_limit_mb=2048 \
