@@ -10,6 +10,7 @@
 #include <CGAL/box_intersection_d.h>
 #include <CGAL/intersections.h>
 #include <glm/geometric.hpp>
+#include <glm/vec2.hpp>
 
 namespace isoforge::mesh {
 
@@ -21,8 +22,62 @@ using Box = CGAL::Box_intersection_d::Box_with_info_d<double, 3, std::size_t>;
 
 }  // namespace
 
+namespace {
+
+/// True when the triangles are clearly apart, decided in double arithmetic without shared vertices:
+/// their boxes do not overlap, or their projections along the dominant axis of one's normal are
+/// separated by a line through an edge, by a margin far above rounding (a point common to both
+/// triangles would project to a point common to both projections). Pairs of a flat region lie
+/// exactly in one plane, where CGAL's filters always fall back to exact arithmetic: this settles
+/// the ones that are apart.
+bool clearlyApart(const std::array<glm::vec3, 3>& pa, const std::array<glm::vec3, 3>& pb) {
+    for (int ax = 0; ax < 3; ++ax) {
+        const float loA = std::min({pa[0][ax], pa[1][ax], pa[2][ax]}),
+                    hiA = std::max({pa[0][ax], pa[1][ax], pa[2][ax]});
+        const float loB = std::min({pb[0][ax], pb[1][ax], pb[2][ax]}),
+                    hiB = std::max({pb[0][ax], pb[1][ax], pb[2][ax]});
+        if (hiA < loB || hiB < loA) return true;  // exact: comparisons of the input floats
+    }
+    const glm::dvec3 a0(pa[0]), a1(pa[1]), a2(pa[2]);
+    const glm::dvec3 n = glm::abs(glm::cross(a1 - a0, a2 - a0));
+    const int drop = n.x >= n.y && n.x >= n.z ? 0 : (n.y >= n.z ? 1 : 2);
+    const int u = (drop + 1) % 3, v = (drop + 2) % 3;
+    const std::array<glm::dvec2, 3> A{glm::dvec2(pa[0][u], pa[0][v]), glm::dvec2(pa[1][u], pa[1][v]),
+                                      glm::dvec2(pa[2][u], pa[2][v])};
+    const std::array<glm::dvec2, 3> B{glm::dvec2(pb[0][u], pb[0][v]), glm::dvec2(pb[1][u], pb[1][v]),
+                                      glm::dvec2(pb[2][u], pb[2][v])};
+    // Side of q against the line p0 -> p1, and a bound on its rounding error.
+    auto side = [](const glm::dvec2& p0, const glm::dvec2& p1, const glm::dvec2& q, double& err) {
+        const glm::dvec2 d = p1 - p0, e = q - p0;
+        err = 1e-12 * (std::abs(d.x * e.y) + std::abs(d.y * e.x));
+        return d.x * e.y - d.y * e.x;
+    };
+    auto separates = [&](const std::array<glm::dvec2, 3>& T, const std::array<glm::dvec2, 3>& other) {
+        for (int k = 0; k < 3; ++k) {
+            const glm::dvec2 &p0 = T[k], &p1 = T[(k + 1) % 3];
+            double err = 0;
+            const double own = side(p0, p1, T[(k + 2) % 3], err);
+            if (!(std::abs(own) > err)) continue;  // a sliver in projection: no use
+            bool all = true;
+            for (int j = 0; j < 3 && all; ++j) {
+                const double s = side(p0, p1, other[j], err);
+                all = own > 0 ? s < -err : s > err;
+            }
+            if (all) return true;
+        }
+        return false;
+    };
+    return separates(A, B) || separates(B, A);
+}
+
+}  // namespace
+
 bool trianglesIntersect(const std::array<glm::vec3, 3>& pa, const std::array<unsigned, 3>& a,
                         const std::array<glm::vec3, 3>& pb, const std::array<unsigned, 3>& b) {
+    bool sharesVertex = false;
+    for (unsigned i : a)
+        for (unsigned j : b) sharesVertex = sharesVertex || i == j;
+    if (!sharesVertex && clearlyApart(pa, pb)) return false;
     // Points by vertex id, so that a shared vertex is one point (the first triangle's).
     const std::array<Point, 6> pts{Point(pa[0].x, pa[0].y, pa[0].z), Point(pa[1].x, pa[1].y, pa[1].z),
                                    Point(pa[2].x, pa[2].y, pa[2].z), Point(pb[0].x, pb[0].y, pb[0].z),

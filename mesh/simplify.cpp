@@ -285,17 +285,29 @@ private:
             ++stats_.rejectedError;
             return;
         }
-        for (std::uint32_t t : ring)
-            for (std::uint32_t o : owned_[t]) {
+        // The new triangle that replaces a ring triangle is where its owned vertices look first: one well
+        // within the bound keeps them (on flat and gently curved regions the scan below is then skipped).
+        std::vector<std::size_t> successor(ring.size(), fresh.size());
+        for (std::size_t r = 0, f = 0; r < ring.size(); ++r)
+            if (ring[r] != edgeTris[0] && ring[r] != edgeTris[1]) successor[r] = f++;
+        for (std::size_t r = 0; r < ring.size(); ++r)
+            for (std::uint32_t o : owned_[ring[r]]) {
                 double best = 1e300;
                 std::size_t arg = 0;
-                for (std::size_t f = 0; f < fresh.size(); ++f) {
-                    const double d = pointTriangle(O_[o], at(fresh[f].x), at(fresh[f].y), at(fresh[f].z));
-                    if (d < best) {
-                        best = d;
-                        arg = f;
-                    }
+                if (successor[r] < fresh.size()) {
+                    const glm::uvec3& tr = fresh[successor[r]];
+                    best = pointTriangle(O_[o], at(tr.x), at(tr.y), at(tr.z));
+                    arg = successor[r];
                 }
+                if (!(best <= 0.25 * eps_))
+                    for (std::size_t f = 0; f < fresh.size(); ++f) {
+                        const double d = pointTriangle(O_[o], at(fresh[f].x), at(fresh[f].y), at(fresh[f].z));
+                        if (d < best) {
+                            best = d;
+                            arg = f;
+                            if (d <= 1e-6 * eps_) break;  // on it (a flat region): no nearer owner to look for
+                        }
+                    }
                 if (!(best <= eps_)) {
                     ++stats_.rejectedError;
                     park(u, v);
@@ -308,6 +320,7 @@ private:
             double best = 1e300;
             auto near = [&](std::uint32_t o) {
                 for (std::uint32_t t : origTris_[o]) {
+                    if (best <= eps_) return;  // one original triangle within the bound is all it takes
                     const auto& tr = origT_[t];
                     best = std::min(best, pointTriangle(p, O_[tr.x], O_[tr.y], O_[tr.z]));
                 }
@@ -328,15 +341,28 @@ private:
             for (const auto& [o, f] : owners) gather(o);
             std::sort(local.begin(), local.end());
             local.erase(std::unique(local.begin(), local.end()), local.end());
-            for (const auto& tr : fresh) {
+            // The original triangles around each new triangle's own vertices and owned vertices come first:
+            // the nearest are almost always among them.
+            std::vector<std::vector<std::uint32_t>> first(fresh.size());
+            for (const auto& [o, f] : owners) first[f].insert(first[f].end(), origTris_[o].begin(), origTris_[o].end());
+            for (std::size_t f = 0; f < fresh.size(); ++f) {
+                const auto& tr = fresh[f];
                 const dvec3 a = at(tr.x), b = at(tr.y), c = at(tr.z);
+                for (int k = 0; k < 3; ++k)
+                    if (tr[k] != u) first[f].insert(first[f].end(), origTris_[tr[k]].begin(), origTris_[tr[k]].end());
                 for (const dvec3& q : {(a + b + c) / 3.0, 0.5 * (a + b), 0.5 * (b + c), 0.5 * (c + a)}) {
                     double d = 1e300;
-                    for (std::uint32_t t : local) {
+                    for (std::uint32_t t : first[f]) {
                         const auto& ot = origT_[t];
                         d = std::min(d, pointTriangle(q, O_[ot.x], O_[ot.y], O_[ot.z]));
                         if (d <= eps_) break;
                     }
+                    if (!(d <= eps_))
+                        for (std::uint32_t t : local) {
+                            const auto& ot = origT_[t];
+                            d = std::min(d, pointTriangle(q, O_[ot.x], O_[ot.y], O_[ot.z]));
+                            if (d <= eps_) break;
+                        }
                     if (!(d <= eps_)) {
                         ++stats_.rejectedError;
                         park(u, v);
