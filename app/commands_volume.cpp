@@ -5,8 +5,6 @@
 
 #include "app/commands.h"
 
-#include <tbb/parallel_for.h>
-
 #include "app/field_input.h"
 #include "app/volume_input.h"
 #include "core/error.h"
@@ -15,7 +13,6 @@
 #include "implicit/shape_spec.h"
 #include "mesh/check.h"
 #include "mesh/io.h"
-#include "mesh/simplify.h"
 #include "render/image.h"
 #include "render/slice.h"
 #include "render/volume_views.h"
@@ -23,7 +20,7 @@
 #include "volume/labels.h"
 #include "volume/marching_cubes.h"
 #include "volume/sample.h"
-#include "volume/sharpen.h"
+#include "volume/surface.h"
 #include "volume/vdb_io.h"
 #include "volume/voxelize.h"
 
@@ -249,59 +246,30 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                                                         a->stats, &field, &a->volume, a->smooth);
             const double readSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
 
-            volume::MeshingOptions opt;
+            if (a->maxError > 0 && a->indexSpace)
+                throw CLI::ValidationError("--max-error", "--max-error is in world units: not with --index-space");
+            volume::SurfaceOptions opt;
             opt.isovalue = a->iso;
             opt.inside = a->inside == "below"   ? volume::InsideSide::Below
                          : a->inside == "above" ? volume::InsideSide::Above
                                                 : volume::InsideSide::Auto;
             opt.normals = a->normals;
-            opt.worldSpace = !a->indexSpace && !a->sharp;
+            opt.indexSpace = a->indexSpace;
+            opt.sharp = a->sharp;
+            opt.maxError = a->maxError;
             opt.progress = g.quiet ? nullptr : &progress;
-            volume::MeshingStats stats;
+            volume::SurfaceStats surface;
+            const volume::MeshingStats& stats = surface.meshing;
+            const volume::SharpenStats& sharpStats = surface.sharpen;
+            const mesh::SimplifyStats& simplifyStats = surface.simplify;
             const auto t1 = Clock::now();
-            mesh::TriMesh m = volume::extractIsosurface(*grid, opt, &stats);
-            volume::SharpenStats sharpStats;
-            if (a->sharp) {
-                const openvdb::math::Transform& xform = grid->transform();
-                if (field) {
-                    auto value = [&field, &xform](const glm::vec3& p) {
-                        const openvdb::Vec3d w = xform.indexToWorld(openvdb::Vec3d(p.x, p.y, p.z));
-                        return field->value(glm::vec3(w.x(), w.y(), w.z()));
-                    };
-                    volume::sharpen(m, value, &sharpStats);
-                } else {
-                    volume::sharpenWithGrid(m, *grid, a->iso, volume::insideIsBelow(*grid, opt.inside), &sharpStats);
-                }
-                if (!a->indexSpace)
-                    tbb::parallel_for(std::size_t{0}, m.positions.size(), [&](std::size_t i) {
-                        const glm::vec3& p = m.positions[i];
-                        const openvdb::Vec3d w = xform.indexToWorld(openvdb::Vec3d(p.x, p.y, p.z));
-                        m.positions[i] = glm::vec3(w.x(), w.y(), w.z());
-                    });
-            }
-            mesh::SimplifyStats simplifyStats;
-            const std::size_t fullTriangles = m.triangleCount();
-            if (a->maxError > 0) {
-                if (a->indexSpace)
-                    throw CLI::ValidationError("--max-error", "--max-error is in world units: not with --index-space");
-                simplifyStats = mesh::simplify(m, a->maxError);
-            }
+            mesh::TriMesh m = volume::meshSurface(*grid, field, opt, &surface);
+            const std::size_t fullTriangles = surface.fullTriangles;
             const double meshSeconds = std::chrono::duration<double>(Clock::now() - t1).count();
             if (m.empty())
                 std::cerr << "isoforge: warning: no surface at iso " << a->iso << " in grid '" << grid->getName()
                           << "' (values " << (volume::insideIsBelow(*grid, opt.inside) ? "below" : "above")
                           << " the iso are inside); writing an empty mesh\n";
-            if (field && !m.empty() && field->colorAt(m.positions.front()).a >= 0.f) {
-                // Colours of CSG colour nodes, per vertex (white where none is given).
-                bool any = false;
-                m.colors.resize(m.positions.size());
-                tbb::parallel_for(std::size_t{0}, m.positions.size(), [&](std::size_t i) {
-                    const glm::vec4 col = field->colorAt(m.positions[i]);
-                    m.colors[i] = col.a > 0 ? glm::vec3(col) : glm::vec3(1.f);
-                });
-                for (const auto& col : m.colors) any = any || col != glm::vec3(1.f);
-                if (!any) m.colors.clear();
-            }
             const auto t2 = Clock::now();
             mesh::writeMesh(a->output, m, {a->ascii});
             const double writeSeconds = std::chrono::duration<double>(Clock::now() - t2).count();

@@ -19,4 +19,14 @@ $bin render data/headsq/quarter.nhdr --iso 1150:ivory --iso 500:skin:0.35 --up 0
 $bin mesh data/headsq/quarter.nhdr --iso 1150 --smooth 1 -o out/head_bone.ply
 $bin check --strict out/head_bone.ply
 $bin slice data/headsq/quarter.nhdr --axis axial --index 40 -o out/head_slice.png
+# The same from Python (docs/python.md), where the package was built: a CSG part, meshed and checked.
+if [ -f build/python/isoforge/__init__.py ]; then
+  PYTHONPATH=build/python /usr/bin/python3 -c '
+import isoforge as iso
+f = (iso.box(2) - iso.cylinder(r=0.4, h=3)) | iso.sphere(0.8).translate((0, 0, 1))
+m = iso.smooth_union(f, iso.torus(1, 0.2), k=0.1).mesh(voxel=0.02)
+m.save("out/python_part.glb")
+r = m.check()
+print("python: %d triangles, closed %s, genus %s -> out/python_part.glb" % (len(m), r["valid_closed_surface"], r["genus"]))'
+fi
 echo "demo: images and meshes are in out/ (open out/showcase.png and out/head.png)"

@@ -21,8 +21,9 @@ packages=(
   openscad openscad-testing-data
   # tests and benchmarks
   libgtest-dev libbenchmark-dev
-  # benchmark baselines (bench/vm_numpy.py)
-  python3-numpy
+  # the Python package (python/, docs/python.md) and its tests; scikit-image is the baseline of
+  # bench/python_marching_cubes.py and of one test (and bench/vm_numpy.py uses numpy)
+  pybind11-dev python3-dev python3-numpy python3-pytest python3-skimage
 )
 # CI also checks formatting and fuzzes the scene parser (clang + libFuzzer).
 if [ "${ISOFORGE_CI:-}" = 1 ]; then packages+=(clang-format clang libclang-rt-14-dev); fi

@@ -20,6 +20,7 @@
 #include "volume/dense_grid.h"
 #include "volume/dense_volume.h"
 #include "volume/labels.h"
+#include "volume/marching_cubes.h"
 
 using namespace isoforge;
 using volume::DenseVolume;
@@ -508,4 +509,40 @@ TEST(Volumes, EveryCutOfEveryFormatIsAnErrorNotACrash) {
     }
     EXPECT_EQ(cutErrors, 100u);       // every cut file is refused (4 formats x 25 cuts)
     EXPECT_EQ(reads + errors, 160u);  // and every flipped one either reads or is refused
+}
+
+TEST(Volumes, GridsNearOneLevelMeshLikeTheWholeVolume) {
+    // toGridNearLevel keeps only the blocks near the level: marching cubes must give the very same
+    // mesh (vertices, normals, triangles) as on the whole volume's grid, on real CT at skin and bone
+    // levels, inside above and below, with a fraction of the leaves.
+    for (const auto& [path, levels] : std::vector<std::pair<std::filesystem::path, std::vector<float>>>{
+             {vols() / "headsq-ct-nrrd/quarter.nhdr", {500.f, 1150.f}},
+             {vols() / "ct-abdomen-dicom/series", {300.f}}}) {
+        const DenseVolume v = volume::readVolume(path);
+        const auto [lo, hi] = v.range();
+        const volume::VolumeView view{v.values.data(), v.dims, v.indexToWorld, v.format};
+        for (const float level : levels)
+            for (const bool above : {true, false}) {
+                SCOPED_TRACE(path.string() + " at " + std::to_string(level) + (above ? " above" : " below"));
+                volume::ToGridOptions o;
+                o.background = above ? lo : hi;
+                const auto whole = volume::toGrid(view, o);
+                std::pair<float, float> range;
+                const auto near = volume::toGridNearLevel(view, level, above, &range);
+                EXPECT_EQ(range, std::make_pair(lo, hi));
+                if (v.voxelCount() > 1e7 && above) {  // the abdomen: bone is a thin part of the volume
+                    EXPECT_LT(near->tree().leafCount(), whole->tree().leafCount() / 4);
+                }
+                volume::MeshingOptions mo;
+                mo.isovalue = level;
+                mo.inside = above ? volume::InsideSide::Above : volume::InsideSide::Below;
+                mo.normals = true;
+                const mesh::TriMesh a = volume::extractIsosurface(*whole, mo), b = volume::extractIsosurface(*near, mo);
+                ASSERT_GT(a.triangleCount(), 1000u);
+                EXPECT_EQ(a.positions, b.positions);
+                EXPECT_EQ(a.normals, b.normals);
+                EXPECT_EQ(a.triangles, b.triangles);
+                if (above) test::expectClosedSurface(b, "near-level grid");
+            }
+    }
 }

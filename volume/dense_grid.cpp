@@ -1,8 +1,10 @@
 #include "volume/dense_grid.h"
 
 #include <algorithm>
+#include <limits>
 
 #include <openvdb/tools/Dense.h>
+#include <tbb/parallel_for.h>
 
 #include "core/error.h"
 #include "volume/readers.h"
@@ -18,16 +20,26 @@ openvdb::math::Transform::Ptr transformOf(const glm::dmat4& m) {
 }
 
 openvdb::FloatGrid::Ptr toGrid(const DenseVolume& v, const ToGridOptions& o) {
+    ToGridOptions opt = o;
+    if (!opt.background) opt.background = v.range().first;
+    openvdb::FloatGrid::Ptr grid = toGrid(VolumeView{v.values.data(), v.dims, v.indexToWorld, v.format}, opt);
+    if (!v.units.empty()) grid->insertMeta("units", openvdb::StringMetadata(v.units));
+    if (!v.modality.empty()) grid->insertMeta("modality", openvdb::StringMetadata(v.modality));
+    return grid;
+}
+
+openvdb::FloatGrid::Ptr toGrid(const VolumeView& v, const ToGridOptions& o) {
     initializeOpenVdb();
-    const float background = o.background ? *o.background : v.range().first;
+    const std::size_t count = std::size_t(v.dims[0]) * std::size_t(v.dims[1]) * std::size_t(v.dims[2]);
+    const float background =
+        o.background ? *o.background : (count ? *std::min_element(v.values, v.values + count) : 0.f);
     auto grid = openvdb::FloatGrid::create(background);
     grid->setTransform(transformOf(v.indexToWorld));
     grid->setGridClass(openvdb::GRID_FOG_VOLUME);
     grid->insertMeta("isoforge_inside", openvdb::StringMetadata("above"));
     grid->insertMeta("source_format", openvdb::StringMetadata(v.format));
-    if (!v.units.empty()) grid->insertMeta("units", openvdb::StringMetadata(v.units));
-    if (!v.modality.empty()) grid->insertMeta("modality", openvdb::StringMetadata(v.modality));
     const std::int64_t slab = 64, nz = v.dims[2];
+    if (count == 0) return grid;
     if (o.progress) o.progress->begin("converting to a sparse grid");
     for (std::int64_t z0 = 0; z0 < nz; z0 += slab) {
         const std::int64_t z1 = std::min(nz, z0 + slab) - 1;
@@ -35,12 +47,109 @@ openvdb::FloatGrid::Ptr toGrid(const DenseVolume& v, const ToGridOptions& o) {
                                      openvdb::Coord(int(v.dims[0] - 1), int(v.dims[1] - 1), int(z1)));
         // A view of the slab in place (x fastest: OpenVDB's LayoutXYZ).
         openvdb::tools::Dense<const float, openvdb::tools::LayoutXYZ> dense(
-            box, v.values.data() + std::size_t(z0 * v.dims[0] * v.dims[1]));
+            box, v.values + std::size_t(z0 * v.dims[0] * v.dims[1]));
         openvdb::tools::copyFromDense(dense, *grid, o.tolerance);
         if (o.progress) o.progress->update(std::size_t(z1 + 1), std::size_t(nz));
     }
     if (o.progress) o.progress->end();
     grid->pruneGrid(o.tolerance);
+    return grid;
+}
+
+openvdb::FloatGrid::Ptr toGridNearLevel(const VolumeView& v, float level, bool insideAbove,
+                                        std::pair<float, float>* range) {
+    initializeOpenVdb();
+    const std::int64_t nx = v.dims[0], ny = v.dims[1], nz = v.dims[2];
+    if (nx <= 0 || ny <= 0 || nz <= 0) {
+        if (range) *range = {0.f, 0.f};
+        return openvdb::FloatGrid::create(0.f);
+    }
+    const std::int64_t bx = (nx + 7) / 8, by = (ny + 7) / 8, bz = (nz + 7) / 8;
+    const auto at = [&](std::int64_t i, std::int64_t j, std::int64_t k) {
+        return v.values[std::size_t((k * ny + j) * nx + i)];
+    };
+    // The range of each voxel row over each block's x extent widened by two voxels each way (each voxel
+    // read once), then of each block's rows widened likewise in y and z: the range of the block and
+    // the two voxels around it.
+    const float inf = std::numeric_limits<float>::infinity();
+    std::vector<float> rowLo(std::size_t(nz * ny * bx)), rowHi(rowLo.size());
+    tbb::parallel_for(std::int64_t{0}, nz * ny, [&](std::int64_t row) {
+        const float* p = v.values + std::size_t(row * nx);
+        for (std::int64_t I = 0; I < bx; ++I) {
+            float lo = inf, hi = -inf;
+            for (std::int64_t i = std::max<std::int64_t>(8 * I - 2, 0); i < std::min(8 * I + 10, nx); ++i) {
+                lo = std::min(lo, p[i]);  // branch-free: vectorized
+                hi = std::max(hi, p[i]);
+            }
+            rowLo[std::size_t(row * bx + I)] = lo;
+            rowHi[std::size_t(row * bx + I)] = hi;
+        }
+    });
+    float minimum = inf, maximum = -inf;
+    for (std::size_t r = 0; r < rowLo.size(); ++r) {
+        minimum = std::min(minimum, rowLo[r]);
+        maximum = std::max(maximum, rowHi[r]);
+    }
+    if (range) *range = {minimum, maximum};
+    const float insideValue = insideAbove ? maximum : minimum, outsideValue = insideAbove ? minimum : maximum;
+    auto grid = openvdb::FloatGrid::create(outsideValue);
+    grid->setTransform(transformOf(v.indexToWorld));
+    grid->setGridClass(openvdb::GRID_FOG_VOLUME);
+    grid->insertMeta("isoforge_inside", openvdb::StringMetadata(insideAbove ? "above" : "below"));
+    grid->insertMeta("source_format", openvdb::StringMetadata(v.format));
+    // 0: outside, 1: inside (a tile), 2: both (a leaf). A block reaching past the array sees outside there.
+    std::vector<std::uint8_t> kind(std::size_t(bx * by * bz));
+    tbb::parallel_for(std::int64_t{0}, bz * by, [&](std::int64_t blockRow) {
+        const std::int64_t K = blockRow / by, J = blockRow % by;
+        for (std::int64_t I = 0; I < bx; ++I) {
+            float lo = inf, hi = -inf;
+            for (std::int64_t k = std::max<std::int64_t>(8 * K - 2, 0); k < std::min(8 * K + 10, nz); ++k)
+                for (std::int64_t j = std::max<std::int64_t>(8 * J - 2, 0); j < std::min(8 * J + 10, ny); ++j) {
+                    lo = std::min(lo, rowLo[std::size_t((k * ny + j) * bx + I)]);
+                    hi = std::max(hi, rowHi[std::size_t((k * ny + j) * bx + I)]);
+                }
+            const bool past = 8 * I - 2 < 0 || 8 * J - 2 < 0 || 8 * K - 2 < 0 || 8 * I + 10 > nx || 8 * J + 10 > ny ||
+                              8 * K + 10 > nz;
+            const bool in = insideAbove ? hi > level : lo < level;
+            const bool out = past || (insideAbove ? lo <= level : hi >= level);
+            kind[std::size_t((K * by + J) * bx + I)] = in && out ? 2 : (in ? 1 : 0);
+        }
+    });
+    using Leaf = openvdb::FloatGrid::TreeType::LeafNodeType;
+    openvdb::FloatGrid::TreeType& tree = grid->tree();
+    std::vector<Leaf*> leaves;
+    for (std::int64_t K = 0; K < bz; ++K)
+        for (std::int64_t J = 0; J < by; ++J)
+            for (std::int64_t I = 0; I < bx; ++I) {
+                const std::uint8_t c = kind[std::size_t((K * by + J) * bx + I)];
+                const openvdb::Coord o(int(8 * I), int(8 * J), int(8 * K));
+                if (c == 1) tree.addTile(1, o, insideValue, true);
+                if (c == 2) leaves.push_back(tree.touchLeaf(o));
+            }
+    tbb::parallel_for(std::size_t{0}, leaves.size(), [&](std::size_t n) {
+        Leaf& leaf = *leaves[n];
+        const openvdb::Coord o = leaf.origin();
+        if (o.x() + 8 <= nx && o.y() + 8 <= ny && o.z() + 8 <= nz) {  // wholly in the array: rows of 8 at once
+            float* buffer = leaf.buffer().data();                     // x slowest, z fastest
+            for (int dz = 0; dz < 8; ++dz)
+                for (int dy = 0; dy < 8; ++dy) {
+                    const float* row = v.values + std::size_t(((o.z() + dz) * ny + o.y() + dy) * nx + o.x());
+                    for (int dx = 0; dx < 8; ++dx) buffer[(dx << 6) | (dy << 3) | dz] = row[dx];
+                }
+            leaf.setValuesOn();
+            return;
+        }
+        for (int dz = 0; dz < 8; ++dz)
+            for (int dy = 0; dy < 8; ++dy)
+                for (int dx = 0; dx < 8; ++dx) {
+                    const std::int64_t i = o.x() + dx, j = o.y() + dy, k = o.z() + dz;
+                    const openvdb::Index offset = Leaf::coordToOffset(openvdb::Coord(int(i), int(j), int(k)));
+                    if (i < nx && j < ny && k < nz)
+                        leaf.setValueOn(offset, at(i, j, k));
+                    else
+                        leaf.setValueOff(offset, outsideValue);
+                }
+    });
     return grid;
 }
 

@@ -2,6 +2,7 @@
 /// @file Dense volumes to and from sparse OpenVDB grids.
 
 #include <optional>
+#include <utility>
 
 #include <openvdb/openvdb.h>
 
@@ -21,6 +22,28 @@ struct ToGridOptions {
 /// 64 slices straight from the volume's memory: no second dense copy. Metadata: "isoforge_inside" =
 /// "above" (densities, CT), the source format, units and modality.
 openvdb::FloatGrid::Ptr toGrid(const DenseVolume& volume, const ToGridOptions& options = {});
+
+/// Voxels held elsewhere (a numpy array), x fastest, then y, then z.
+struct VolumeView {
+    const float* values = nullptr;
+    std::array<std::int64_t, 3> dims{0, 0, 0};
+    glm::dmat4 indexToWorld{1.0};
+    std::string format;  ///< for the grid's metadata
+};
+/// The same from a view: read in place, no copy of the voxels.
+openvdb::FloatGrid::Ptr toGrid(const VolumeView& volume, const ToGridOptions& options = {});
+
+/// A sparse grid for the iso-surface at `level` alone: the 8^3 blocks whose voxels, or those within two
+/// voxels of them, lie on both sides of the level become leaves (the voxels as they are); blocks wholly
+/// inside become tiles of `insideValue`; the rest is the background `outsideValue` (outside the array
+/// too). Every crossed cell and every gradient at a crossing sees the volume's own values, so
+/// marching cubes gives the same vertices and normals as on toGrid's grid, while the memory and the
+/// work grow with the surface, not the volume. Inside is above the level (values equal to it outside)
+/// when `insideAbove`, else below; the inside value is the volume's maximum (its minimum when inside is
+/// below) and the background the other extreme, as toGrid's background is. `range` (if given) gets
+/// the volume's minimum and maximum. Parallel (TBB); deterministic.
+openvdb::FloatGrid::Ptr toGridNearLevel(const VolumeView& volume, float level, bool insideAbove,
+                                        std::pair<float, float>* range = nullptr);
 
 /// The dense volume of a grid's active bounding box (inactive voxels take the background).
 DenseVolume toDense(const openvdb::FloatGrid& grid);

@@ -1,0 +1,62 @@
+#include "volume/surface.h"
+
+#include <stdexcept>
+
+#include <tbb/parallel_for.h>
+
+namespace isoforge::volume {
+
+namespace {
+
+glm::vec3 toWorld(const openvdb::math::Transform& xform, const glm::vec3& p) {
+    const openvdb::Vec3d w = xform.indexToWorld(openvdb::Vec3d(p.x, p.y, p.z));
+    return glm::vec3(float(w.x()), float(w.y()), float(w.z()));
+}
+
+/// Colours of the field's CSG colour nodes, per vertex (white where none is given); none when no node gives one.
+void colourByMaterial(mesh::TriMesh& m, const implicit::Field& field) {
+    if (m.empty() || field.colorAt(m.positions.front()).a < 0.f) return;
+    m.colors.resize(m.positions.size());
+    tbb::parallel_for(std::size_t{0}, m.positions.size(), [&](std::size_t i) {
+        const glm::vec4 col = field.colorAt(m.positions[i]);
+        m.colors[i] = col.a > 0 ? glm::vec3(col) : glm::vec3(1.f);
+    });
+    bool any = false;
+    for (const auto& col : m.colors) any = any || col != glm::vec3(1.f);
+    if (!any) m.colors.clear();
+}
+
+}  // namespace
+
+mesh::TriMesh meshSurface(const openvdb::FloatGrid& grid, const implicit::FieldPtr& field,
+                          const SurfaceOptions& options, SurfaceStats* stats) {
+    if (options.maxError > 0 && options.indexSpace)
+        throw std::invalid_argument("the simplification bound is in world units: not with index-space positions");
+    SurfaceStats local;
+    SurfaceStats& st = stats ? *stats : local;
+    MeshingOptions opt;
+    opt.isovalue = options.isovalue;
+    opt.inside = options.inside;
+    opt.normals = options.normals;
+    opt.worldSpace = !options.indexSpace && !options.sharp;
+    opt.progress = options.progress;
+    mesh::TriMesh m = extractIsosurface(grid, opt, &st.meshing);
+    if (options.sharp) {
+        const openvdb::math::Transform& xform = grid.transform();
+        if (field) {
+            auto value = [&field, &xform](const glm::vec3& p) { return field->value(toWorld(xform, p)); };
+            sharpen(m, value, &st.sharpen);
+        } else {
+            sharpenWithGrid(m, grid, options.isovalue, insideIsBelow(grid, options.inside), &st.sharpen);
+        }
+        if (!options.indexSpace)
+            tbb::parallel_for(std::size_t{0}, m.positions.size(),
+                              [&](std::size_t i) { m.positions[i] = toWorld(xform, m.positions[i]); });
+    }
+    st.fullTriangles = m.triangleCount();
+    if (options.maxError > 0) st.simplify = mesh::simplify(m, options.maxError);
+    if (field && !options.indexSpace) colourByMaterial(m, *field);
+    return m;
+}
+
+}  // namespace isoforge::volume
