@@ -1,8 +1,10 @@
 // iso.Grid: sparse OpenVDB float grids from fields, files and arrays; meshed with the command line's pipeline.
 #include <openvdb/tools/Dense.h>
 
+#include "core/error.h"
 #include "python/common.h"
 #include "volume/dense_grid.h"
+#include "volume/sample.h"
 #include "volume/surface.h"
 #include "volume/vdb_io.h"
 
@@ -96,19 +98,38 @@ void bindGrids(py::module_& m) {
             "'above' (fog, density, CT) or 'auto' (by the grid's class)")
         .def(
             "to_numpy",
-            [](const PyGrid& g) {
-                volume::DenseVolume v;
+            [](const PyGrid& g, const py::object& box) {
+                openvdb::CoordBBox ib = g.grid->evalActiveVoxelBoundingBox();
+                if (!box.is_none()) {  // the voxels whose centres lie in the world box
+                    const implicit::Box3 wb = toBox(box);
+                    const openvdb::Vec3d lo =
+                        g.grid->transform().worldToIndex(openvdb::Vec3d(wb.min.x, wb.min.y, wb.min.z));
+                    const openvdb::Vec3d hi =
+                        g.grid->transform().worldToIndex(openvdb::Vec3d(wb.max.x, wb.max.y, wb.max.z));
+                    ib = openvdb::CoordBBox(openvdb::Coord::ceil(openvdb::math::minComponent(lo, hi)),
+                                            openvdb::Coord::floor(openvdb::math::maxComponent(lo, hi)));
+                }
+                if (ib.empty())
+                    throw py::value_error("no voxels there (an empty grid, or a box between voxel centres)");
+                const openvdb::Coord d = ib.dim();
+                if (double(d.x()) * d.y() * d.z() * 4 > 0.5 * double(volume::physicalMemory()))
+                    throw isoforge::ResourceError("a dense array of " + std::to_string(d.x()) + " x " +
+                                                  std::to_string(d.y()) + " x " + std::to_string(d.z()) +
+                                                  " voxels would need more than half of this machine's memory");
+                auto* values = new std::vector<float>(std::size_t(d.x()) * std::size_t(d.y()) * std::size_t(d.z()));
+                py::capsule owner(values, [](void* p) { delete static_cast<std::vector<float>*>(p); });
                 {
                     py::gil_scoped_release release;
-                    v = volume::toDense(*g.grid);
+                    openvdb::tools::Dense<float, openvdb::tools::LayoutXYZ> dense(ib, values->data());
+                    openvdb::tools::copyToDense(*g.grid, dense);
                 }
-                auto* values = new std::vector<float>(std::move(v.values));
-                py::capsule owner(values, [](void* p) { delete static_cast<std::vector<float>*>(p); });
                 const py::ssize_t f = sizeof(float);
-                return py::array_t<float>({py::ssize_t(v.dims[0]), py::ssize_t(v.dims[1]), py::ssize_t(v.dims[2])},
-                                          {f, f * v.dims[0], f * v.dims[0] * v.dims[1]}, values->data(), owner);
+                return py::array_t<float>({py::ssize_t(d.x()), py::ssize_t(d.y()), py::ssize_t(d.z())},
+                                          {f, f * d.x(), f * d.x() * d.y()}, values->data(), owner);
             },
-            "The dense array [i, j, k] of the active bounding box (Fortran order: i fastest, no copy)")
+            py::arg("box") = py::none(),
+            "The dense array [i, j, k] (Fortran order: i fastest, no copy) of the active voxels' bounding box,\n"
+            "or of the voxels whose centres lie in a world box ((x0, y0, z0), (x1, y1, z1))")
         .def_property_readonly("name", [](const PyGrid& g) { return g.grid->getName(); })
         .def_property_readonly("voxel_size", [](const PyGrid& g) { return g.grid->voxelSize().x(); })
         .def_property_readonly("active_voxels", [](const PyGrid& g) { return g.grid->activeVoxelCount(); })

@@ -3,6 +3,7 @@
 
 #include <glm/common.hpp>
 #include <glm/gtc/matrix_transform.hpp>
+#include <tbb/global_control.h>
 
 #include <gtest/gtest.h>
 
@@ -17,6 +18,7 @@
 #include "volume/marching_cubes.h"
 #include "volume/sample.h"
 #include "volume/sharpen.h"
+#include "volume/surface.h"
 #include "volume/vdb_io.h"
 
 using namespace isoforge;
@@ -633,5 +635,29 @@ TEST(Simplify, FewerTrianglesWithinTheBoundAndEveryGuarantee) {
         mesh::simplify(again, bound);
         EXPECT_EQ(again.positions, simple.positions);
         EXPECT_EQ(again.triangles, simple.triangles);
+    }
+}
+
+TEST(Sharp, SameBytesWhateverTheThreadCount) {
+    // The whole --sharp --max-error pipeline (volume::meshSurface, what `isoforge mesh` and Python call):
+    // the same vertices and triangles on 1, 2 and 3 threads.
+    const auto scene =
+        csg::parseScene("difference() { rotate([10, 20, 30]) cube([6, 5, 4], center = true); sphere(2.8); }", "d.isf");
+    volume::SampleOptions so;
+    so.voxelSize = 0.2f;
+    volume::SurfaceOptions o;
+    o.sharp = true;
+    o.maxError = 0.04;
+    mesh::TriMesh reference;
+    for (int threads : {1, 2, 3}) {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+        const mesh::TriMesh m = volume::meshSurface(*volume::sample(scene.root, so), scene.root, o);
+        if (threads == 1) {
+            reference = m;
+            test::expectClosedSurface(m, "sharp and simplified");
+            continue;
+        }
+        EXPECT_EQ(m.positions, reference.positions) << threads << " threads";
+        EXPECT_EQ(m.triangles, reference.triangles) << threads << " threads";
     }
 }

@@ -4,6 +4,7 @@
 #include <limits>
 
 #include <openvdb/tools/Dense.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include "core/error.h"
@@ -68,28 +69,56 @@ openvdb::FloatGrid::Ptr toGridNearLevel(const VolumeView& v, float level, bool i
     const auto at = [&](std::int64_t i, std::int64_t j, std::int64_t k) {
         return v.values[std::size_t((k * ny + j) * nx + i)];
     };
-    // The range of each voxel row over each block's x extent widened by two voxels each way (each voxel
-    // read once), then of each block's rows widened likewise in y and z: the range of the block and
-    // the two voxels around it.
+    // The range of each block and of the two voxels around it: rows' ranges over each block's x extent
+    // widened by two voxels each way, then over each block's rows widened likewise in y and z.
     const float inf = std::numeric_limits<float>::infinity();
-    std::vector<float> rowLo(std::size_t(nz * ny * bx)), rowHi(rowLo.size());
-    tbb::parallel_for(std::int64_t{0}, nz * ny, [&](std::int64_t row) {
-        const float* p = v.values + std::size_t(row * nx);
-        for (std::int64_t I = 0; I < bx; ++I) {
-            float lo = inf, hi = -inf;
-            for (std::int64_t i = std::max<std::int64_t>(8 * I - 2, 0); i < std::min(8 * I + 10, nx); ++i) {
-                lo = std::min(lo, p[i]);  // branch-free: vectorized
-                hi = std::max(hi, p[i]);
+    // Per layer of blocks (parallel), in a buffer each thread reuses: the rows' ranges for the layer's
+    // slices and two more each side, then each block's range over its rows.
+    // kind: 0 outside, 1 inside (a tile), 2 both (a leaf). A block reaching past the array sees outside there.
+    std::vector<std::uint8_t> kind(std::size_t(bx * by * bz));
+    std::vector<float> layerLo(std::size_t(bz), inf), layerHi(std::size_t(bz), -inf);
+    tbb::enumerable_thread_specific<std::vector<float>> scratch;
+    tbb::parallel_for(std::int64_t{0}, bz, [&](std::int64_t K) {
+        const std::int64_t k0 = std::max<std::int64_t>(8 * K - 2, 0), k1 = std::min(8 * K + 10, nz);
+        std::vector<float>& buffer = scratch.local();
+        const std::size_t rows = std::size_t((k1 - k0) * ny * bx);
+        buffer.resize(2 * rows);
+        float *rowLo = buffer.data(), *rowHi = buffer.data() + rows;
+        float layerMin = inf, layerMax = -inf;
+        for (std::int64_t k = k0; k < k1; ++k)
+            for (std::int64_t j = 0; j < ny; ++j) {
+                const float* p = v.values + std::size_t((k * ny + j) * nx);
+                for (std::int64_t I = 0; I < bx; ++I) {
+                    float lo = inf, hi = -inf;
+                    for (std::int64_t i = std::max<std::int64_t>(8 * I - 2, 0); i < std::min(8 * I + 10, nx); ++i) {
+                        lo = std::min(lo, p[i]);  // branch-free: vectorized
+                        hi = std::max(hi, p[i]);
+                    }
+                    rowLo[std::size_t(((k - k0) * ny + j) * bx + I)] = lo;
+                    rowHi[std::size_t(((k - k0) * ny + j) * bx + I)] = hi;
+                    layerMin = std::min(layerMin, lo);
+                    layerMax = std::max(layerMax, hi);
+                }
             }
-            rowLo[std::size_t(row * bx + I)] = lo;
-            rowHi[std::size_t(row * bx + I)] = hi;
-        }
+        layerLo[std::size_t(K)] = layerMin;
+        layerHi[std::size_t(K)] = layerMax;
+        for (std::int64_t J = 0; J < by; ++J)
+            for (std::int64_t I = 0; I < bx; ++I) {
+                float lo = inf, hi = -inf;
+                for (std::int64_t k = k0; k < k1; ++k)
+                    for (std::int64_t j = std::max<std::int64_t>(8 * J - 2, 0); j < std::min(8 * J + 10, ny); ++j) {
+                        lo = std::min(lo, rowLo[std::size_t(((k - k0) * ny + j) * bx + I)]);
+                        hi = std::max(hi, rowHi[std::size_t(((k - k0) * ny + j) * bx + I)]);
+                    }
+                const bool past = 8 * I - 2 < 0 || 8 * J - 2 < 0 || 8 * K - 2 < 0 || 8 * I + 10 > nx ||
+                                  8 * J + 10 > ny || 8 * K + 10 > nz;
+                const bool in = insideAbove ? hi > level : lo < level;
+                const bool out = past || (insideAbove ? lo <= level : hi >= level);
+                kind[std::size_t((K * by + J) * bx + I)] = in && out ? 2 : (in ? 1 : 0);
+            }
     });
-    float minimum = inf, maximum = -inf;
-    for (std::size_t r = 0; r < rowLo.size(); ++r) {
-        minimum = std::min(minimum, rowLo[r]);
-        maximum = std::max(maximum, rowHi[r]);
-    }
+    const float minimum = *std::min_element(layerLo.begin(), layerLo.end());
+    const float maximum = *std::max_element(layerHi.begin(), layerHi.end());
     if (range) *range = {minimum, maximum};
     const float insideValue = insideAbove ? maximum : minimum, outsideValue = insideAbove ? minimum : maximum;
     auto grid = openvdb::FloatGrid::create(outsideValue);
@@ -97,24 +126,6 @@ openvdb::FloatGrid::Ptr toGridNearLevel(const VolumeView& v, float level, bool i
     grid->setGridClass(openvdb::GRID_FOG_VOLUME);
     grid->insertMeta("isoforge_inside", openvdb::StringMetadata(insideAbove ? "above" : "below"));
     grid->insertMeta("source_format", openvdb::StringMetadata(v.format));
-    // 0: outside, 1: inside (a tile), 2: both (a leaf). A block reaching past the array sees outside there.
-    std::vector<std::uint8_t> kind(std::size_t(bx * by * bz));
-    tbb::parallel_for(std::int64_t{0}, bz * by, [&](std::int64_t blockRow) {
-        const std::int64_t K = blockRow / by, J = blockRow % by;
-        for (std::int64_t I = 0; I < bx; ++I) {
-            float lo = inf, hi = -inf;
-            for (std::int64_t k = std::max<std::int64_t>(8 * K - 2, 0); k < std::min(8 * K + 10, nz); ++k)
-                for (std::int64_t j = std::max<std::int64_t>(8 * J - 2, 0); j < std::min(8 * J + 10, ny); ++j) {
-                    lo = std::min(lo, rowLo[std::size_t((k * ny + j) * bx + I)]);
-                    hi = std::max(hi, rowHi[std::size_t((k * ny + j) * bx + I)]);
-                }
-            const bool past = 8 * I - 2 < 0 || 8 * J - 2 < 0 || 8 * K - 2 < 0 || 8 * I + 10 > nx || 8 * J + 10 > ny ||
-                              8 * K + 10 > nz;
-            const bool in = insideAbove ? hi > level : lo < level;
-            const bool out = past || (insideAbove ? lo <= level : hi >= level);
-            kind[std::size_t((K * by + J) * bx + I)] = in && out ? 2 : (in ? 1 : 0);
-        }
-    });
     using Leaf = openvdb::FloatGrid::TreeType::LeafNodeType;
     openvdb::FloatGrid::TreeType& tree = grid->tree();
     std::vector<Leaf*> leaves;

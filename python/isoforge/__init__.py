@@ -40,6 +40,20 @@ from ._isoforge import (  # noqa: F401
     vm,
 )
 
+
+
+def _field_save(self, path, *, step=None, **mesh_options):
+    """Meshes the field and writes the mesh (fogleman/sdf's `f.save('out.stl', step=0.01)`): `step` is the
+    voxel size; other keywords go to Field.mesh (voxel, resolution, sharp, max_error, ...). Returns the Mesh."""
+    if step is not None:
+        mesh_options["voxel"] = step
+    mesh = self.mesh(**mesh_options)
+    mesh.save(path)
+    return mesh
+
+
+Field.save = _field_save
+
 __all__ = [
     "Field", "Grid", "IoError", "Mesh", "ParseError", "ResourceError", "Scene", "box", "capsule", "cone",
     "cylinder", "difference", "ellipsoid", "expr", "intersection", "marching_cubes", "plane", "read_volume",

@@ -83,6 +83,16 @@ def test_volumes_and_areas_converge_to_the_analytic_ones():
     assert abs(r["volume"] - 1.0) < 0.01
 
 
+def test_grids_give_dense_arrays_of_any_box(tmp_path):
+    grid = iso.sphere(1).sample(voxel=0.1)
+    whole = grid.to_numpy()
+    assert whole.shape == tuple(hi - lo + 1 for lo, hi in zip(*grid.index_bounds))
+    part = grid.to_numpy(((-0.25, -0.25, -0.25), (0.25, 0.25, 0.25)))  # voxel centres at -0.2 .. 0.2
+    assert part.shape == (5, 5, 5) and part[2, 2, 2] == pytest.approx(-0.3)  # inside: the band's -3 voxels
+    grid.save(str(tmp_path / "s.vdb"))
+    np.testing.assert_array_equal(iso.Grid.load(str(tmp_path / "s.vdb")).to_numpy(), whole)
+
+
 def test_transforms_move_the_clip_box_with_the_field():
     f = iso.expr("x^2 + y^2 + z^2 - 1", box=((-1.2,) * 3, (1.2,) * 3)).translate((5, 0, 0))
     (lo, hi) = f.bounds
@@ -100,6 +110,11 @@ def test_mesh_arrays_are_views_not_copies():
     assert m.vertices[0, 0] == 42.0
     del m
     assert v1[0, 0] == 42.0  # the array keeps the mesh alive
+
+
+def test_fields_save_as_fogleman_sdf_does(tmp_path):
+    m = iso.sphere(1).save(str(tmp_path / "s.stl"), step=0.05)
+    assert valid(iso.Mesh.load(str(tmp_path / "s.stl")))["triangles"] == len(m)
 
 
 def test_meshes_round_trip_through_numpy_and_files(tmp_path):
