@@ -1,9 +1,9 @@
 #include <algorithm>
 #include <cmath>
 
+#include <tbb/global_control.h>
 #include <glm/common.hpp>
 #include <glm/gtc/matrix_transform.hpp>
-#include <tbb/global_control.h>
 
 #include <gtest/gtest.h>
 
