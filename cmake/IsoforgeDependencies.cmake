@@ -23,6 +23,9 @@ find_package(glm REQUIRED CONFIG)                     # glm::glm
 find_package(CLI11 REQUIRED CONFIG)                   # CLI11::CLI11
 find_package(meshoptimizer REQUIRED CONFIG)           # meshoptimizer::meshoptimizer (triangle strips)
 find_package(TinyGLTF REQUIRED CONFIG)                # TinyGLTF::TinyGLTF (.glb output)
+# Clipper 6.4 (Debian's libpolyclipping-dev: the version OpenSCAD 2021.01 uses) for OpenSCAD's 2D booleans
+find_path(POLYCLIPPING_INCLUDE_DIR polyclipping/clipper.hpp REQUIRED)
+find_library(POLYCLIPPING_LIBRARY polyclipping REQUIRED)
 
 # Medical image formats (docs/volumes.md): niftilib (NIfTI-1/2), GDCM (DICOM), teem (NRRD), zlib (MetaImage).
 # Debian 12's CMake configs of all three name files their -dev packages do not install (tools, VTK

@@ -113,11 +113,34 @@ std::vector<FieldPtr> Evaluator::children(const Statement& s, const Scope& scope
 FieldPtr Evaluator::group(const Statement& s, const Scope& scope, int depth) {
     auto kids = children(s, scope, depth);
     if (kids.empty()) return nullptr;
-    return makeUnion(std::move(kids));
+    std::optional<Profile> p = combinedProfile(kids, ProfileOp::Union);
+    FieldPtr u = makeUnion(std::move(kids));
+    return p ? withProfile(u, std::move(*p)) : u;
 }
 FieldPtr Evaluator::transformed(const Statement& s, const Scope& scope, int depth, const glm::dmat4& m) {
     FieldPtr g = group(s, scope, depth);
-    return g ? implicit::makeTransformed(g, glm::mat4(m)) : nullptr;
+    if (!g) return nullptr;
+    FieldPtr t = implicit::makeTransformed(g, glm::mat4(m));
+    if (const Profile* p = profileOf(g)) return withProfile(t, transformProfile(*p, m));
+    return t;
+}
+
+FieldPtr Evaluator::withProfile(FieldPtr f, Profile p) {
+    profiles_[f.get()] = {f, std::move(p)};
+    return f;
+}
+const Profile* Evaluator::profileOf(const FieldPtr& f) const {
+    auto it = profiles_.find(f.get());
+    return it == profiles_.end() ? nullptr : &it->second.second;
+}
+std::optional<Profile> Evaluator::combinedProfile(const std::vector<FieldPtr>& kids, ProfileOp op) const {
+    std::vector<const Profile*> ps;
+    for (const FieldPtr& k : kids) {
+        const Profile* p = profileOf(k);
+        if (!p) return std::nullopt;
+        ps.push_back(p);
+    }
+    return combineProfiles(ps, op);
 }
 std::string Evaluator::path(const std::string& p) const {
     const std::filesystem::path q(p);
@@ -132,8 +155,8 @@ FieldPtr Evaluator::dropped(const Call& site, const std::string& why) {
     d_.warn(site.s.line, site.s.col, why + ": it is empty and ignored, as OpenSCAD does");
     note(site.depth, site.s.name + " (empty, ignored)", site.s);
     // An empty solid, not nothing: as the first child of a difference it empties the difference,
-    // and in an intersection the intersection, as in OpenSCAD.
-    return makeEmpty();
+    // and in an intersection the intersection, as in OpenSCAD. As a 2D object, an empty polygon.
+    return withProfile(makeEmpty(), Profile{});
 }
 
 FieldPtr Evaluator::leafOf(const Call& c, FieldPtr f, const std::string& what) {

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -13,6 +14,7 @@
 
 #include "csg/args.h"
 #include "csg/diagnostics.h"
+#include "csg/profile.h"
 #include "csg/scene.h"
 #include "csg/syntax.h"
 #include "csg/value.h"
@@ -88,7 +90,19 @@ private:
     std::optional<FieldPtr> operation(const Call& site);
     std::optional<FieldPtr> sceneStatement(const Call& site);
 
+    /// OpenSCAD's polygons of the 2D objects made of circle, square, polygon, 2D transforms, colours
+    /// and booleans (csg/profile.h), by field: what a twisted extrusion builds its walls on. Each
+    /// entry holds its field, so that no other field takes its address.
+    FieldPtr withProfile(FieldPtr f, Profile p);
+    const Profile* profileOf(const FieldPtr& f) const;
+    /// The boolean of the children's profiles, when each child has one.
+    std::optional<Profile> combinedProfile(const std::vector<FieldPtr>& kids, ProfileOp op) const;
+    /// OpenSCAD's linear_extrude mesh for a twist or an uneven scale (nothing for other extrusions, or
+    /// a child without a profile).
+    FieldPtr slicedExtrusion(const Call& site, const std::vector<FieldPtr>& kids, const ExtrudeParams& e);
+
     Diagnostics& d_;
+    std::map<const implicit::Field*, std::pair<FieldPtr, Profile>> profiles_;
     Scene& scene_;
     std::filesystem::path dir_;
     FieldPtr root_;

@@ -10,6 +10,7 @@
 #include "csg/nodes.h"
 #include "csg/shapes.h"
 #include "implicit/primitives.h"
+#include "mesh/trimesh.h"
 
 namespace isoforge::csg {
 
@@ -39,8 +40,27 @@ std::optional<FieldPtr> Evaluator::operation(const Call& site) {
             sc = glm::dvec3(1.0);
         }
         sc = glm::max(sc, glm::dvec3(0.0));  // OpenSCAD takes a negative scale as 0
-        // A twist is continuous here; OpenSCAD builds it from slices with straight, triangulated walls
-        // (docs/openscad.md: the volumes differ by a few per cent for large twists per slice).
+        // OpenSCAD builds a twisted or unevenly scaled extrusion from slices with straight,
+        // triangulated walls: in its exports (slices, or $fa and $fs, given) we build the same mesh.
+        // Elsewhere (our own scenes) the twist is continuous.
+        const Value* fa = scope.find("$fa");
+        const Value* fs = scope.find("$fs");
+        const Value* fn = scope.find("$fn");
+        const bool exported = a.has("slices") || (fa && fs && fa->kind == Value::Number && fs->kind == Value::Number);
+        // (A scale of 0 goes the same way: OpenSCAD drops the pinched cone from boolean operations.)
+        if (exported && (twist != 0 || sc.x != sc.y || sc.x == 0 || sc.y == 0)) {
+            ExtrudeParams e;
+            e.height = height;
+            e.twistDeg = twist;
+            e.scale = glm::dvec2(sc.x, sc.y);
+            e.center = a.boolean("center", false);
+            const double slices = a.number("slices", 0.0);
+            e.slices = std::isfinite(slices) && slices > 0 ? static_cast<int>(std::min(slices, 1e6)) : 0;
+            e.fn = fn && fn->kind == Value::Number ? fn->n : 0.0;
+            if (fa && fa->kind == Value::Number) e.fa = fa->n;
+            if (fs && fs->kind == Value::Number) e.fs = fs->n;
+            if (FieldPtr f = slicedExtrusion(site, kids, e)) return f;
+        }
         return makeLinearExtrude(makeUnion(std::move(kids)), float(height), a.boolean("center", false), float(twist),
                                  glm::vec2(float(sc.x), float(sc.y)));
     }
@@ -175,6 +195,12 @@ std::optional<FieldPtr> Evaluator::operation(const Call& site) {
         auto kids = combining(s.children, [&] { return children(s, scope, depth); });
         if (kids.empty()) return nullptr;
         const std::string base = smooth ? n.substr(7) : n;
+        std::optional<Profile> profile;
+        if (!smooth)
+            profile = combinedProfile(kids, base == "intersection" ? ProfileOp::Intersection
+                                            : base == "difference" ? ProfileOp::Difference
+                                                                   : ProfileOp::Union);
+        auto profiled = [&](FieldPtr f) { return profile ? withProfile(std::move(f), std::move(*profile)) : f; };
         if (base == "intersection") {
             // A child whose bounds miss the others' (a shape outside its clipping box): nothing is left.
             Box3 common = Box3::everything();
@@ -182,7 +208,7 @@ std::optional<FieldPtr> Evaluator::operation(const Call& site) {
             if (kids.size() > 1 && common.isEmpty())
                 d_.warn(s.line, s.col,
                         "this intersection is empty: a child lies outside the others (outside its clipping box?)");
-            return makeIntersection(std::move(kids), k);
+            return profiled(makeIntersection(std::move(kids), k));
         }
         if (base == "difference") {
             if (kids.size() > 1) {
@@ -194,9 +220,9 @@ std::optional<FieldPtr> Evaluator::operation(const Call& site) {
                     d_.warn(s.line, s.col,
                             "this difference removes nothing: the subtracted children lie outside the first");
             }
-            return makeDifference(std::move(kids), k);
+            return profiled(makeDifference(std::move(kids), k));
         }
-        return makeUnion(std::move(kids), k);
+        return profiled(makeUnion(std::move(kids), k));
     }
     if (n == "color" || n == "material") {
         const bool mat = n == "material";
@@ -231,7 +257,9 @@ std::optional<FieldPtr> Evaluator::operation(const Call& site) {
         }
         note(depth, n, s);
         FieldPtr g = group(s, scope, depth);
-        return g ? makeMaterial(g, m) : nullptr;
+        if (!g) return nullptr;
+        const Profile* p = profileOf(g);
+        return p ? withProfile(makeMaterial(g, m), *p) : makeMaterial(g, m);
     }
     if (n == "offset") {
         Args a = args({"r", "delta", "chamfer"});
@@ -246,6 +274,28 @@ std::optional<FieldPtr> Evaluator::operation(const Call& site) {
         return g ? implicit::makeShell(g, float(a.number("t", 0.1))) : nullptr;
     }
     return std::nullopt;
+}
+
+FieldPtr Evaluator::slicedExtrusion(const Call& site, const std::vector<FieldPtr>& kids, const ExtrudeParams& e) {
+    std::optional<Profile> p = combinedProfile(kids, ProfileOp::Union);
+    if (!p || p->outlines.empty()) return nullptr;
+    mesh::TriMesh m = extrudeProfile(*p, e);
+    // OpenSCAD converts it to a CGAL polyhedron inside a boolean operation, which fails for a mesh
+    // whose faces do not pair up or whose walls meet at one point (a scale of 0 pinching them
+    // together): it skips it there.
+    if (booleans_ > 0) {
+        std::vector<std::vector<int>> faces;
+        for (const glm::uvec3& t : m.triangles) faces.push_back({int(t.x), int(t.y), int(t.z)});
+        if (!facesPairUp(m.positions, faces, true))
+            return dropped(site,
+                           "linear_extrude() makes a mesh that is not closed, so OpenSCAD cannot use it in a "
+                           "boolean operation (\"The given mesh is not closed!\")");
+    }
+    try {
+        return makeTriangleMeshField(std::move(m.positions), std::move(m.triangles), site.s.name, nullptr, true);
+    } catch (const std::invalid_argument&) {
+        return nullptr;  // nothing of non-zero area: the continuous extrusion says the same
+    }
 }
 
 }  // namespace isoforge::csg

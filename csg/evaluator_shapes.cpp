@@ -205,7 +205,8 @@ std::optional<FieldPtr> Evaluator::shape2D(const Call& site) {
         const double r = a.has("d") ? 0.5 * a.number("d") : a.number("r", 1.0);
         if (!(r > 0) || !std::isfinite(r)) return dropped(site, "circle() with a zero, negative or non-finite radius");
         const int fn = fragments(scope, s, r);
-        return leaf(fn ? makeRegularPolygon2D(float(r), fn) : makeCircle2D(float(r)), "circle");
+        if (!fn) return leaf(makeCircle2D(float(r)), "circle");
+        return leaf(withProfile(makeRegularPolygon2D(float(r), fn), circleProfile(r, fn)), "circle");
     }
     if (n == "square") {
         Args a = args({"size", "center"});
@@ -214,13 +215,16 @@ std::optional<FieldPtr> Evaluator::shape2D(const Call& site) {
             return dropped(site, "square() with a zero, negative or non-finite size");
         const glm::vec2 sz(static_cast<float>(size.x), static_cast<float>(size.y));
         const glm::vec2 lo = a.boolean("center", false) ? -0.5f * sz : glm::vec2(0.f);
-        return leaf(makeRectangle2D(lo, lo + sz), "square");
+        return leaf(withProfile(makeRectangle2D(lo, lo + sz),
+                                squareProfile(glm::dvec2(size.x, size.y), a.boolean("center", false))),
+                    "square");
     }
     if (n == "polygon") {
         Args a = args({"points", "paths", "convexity", "subdivide", "levels"});
         const Value* pts = a.raw("points");
         if (!pts) throw EvalError{s.line, s.col, "polygon() needs points"};
         std::vector<glm::vec2> p;
+        std::vector<glm::dvec2> exact;  // OpenSCAD's points, in double precision
         if (pts->kind != Value::Vector) return dropped(site, "polygon() without a list of points");
         for (const auto& q : pts->v) {
             if (q.kind != Value::Vector || q.v.size() != 2 || q.v[0].kind != Value::Number ||
@@ -228,6 +232,7 @@ std::optional<FieldPtr> Evaluator::shape2D(const Call& site) {
                 return dropped(site,
                                "polygon() point " + std::to_string(p.size()) + " is not [x, y] of finite numbers");
             p.emplace_back(q.v[0].n, q.v[1].n);
+            exact.emplace_back(q.v[0].n, q.v[1].n);
         }
         std::vector<std::vector<int>> paths;
         if (const Value* pv = a.raw("paths"); pv && pv->kind == Value::Vector)
@@ -249,6 +254,7 @@ std::optional<FieldPtr> Evaluator::shape2D(const Call& site) {
                 return scheme == "chaikin" ? mesh::chaikin(std::move(ring), static_cast<int>(levels))
                                            : mesh::fourPoint(std::move(ring), static_cast<int>(levels));
             };
+            exact.clear();
             if (paths.empty()) {
                 p = smooth(std::move(p));
             } else {
@@ -271,13 +277,16 @@ std::optional<FieldPtr> Evaluator::shape2D(const Call& site) {
                 paths = std::move(newPaths);
             }
         }
+        if (exact.empty())
+            for (const glm::vec2& q : p) exact.emplace_back(q);
+        Profile profile = polygonProfile(exact, paths);
         FieldPtr poly;
         try {
             poly = makePolygon2D(std::move(p), std::move(paths));
         } catch (const std::invalid_argument& e) {
             return dropped(site, e.what());
         }
-        return leaf(poly, "polygon");
+        return leaf(withProfile(poly, std::move(profile)), "polygon");
     }
     return std::nullopt;
 }

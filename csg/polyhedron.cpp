@@ -513,24 +513,43 @@ private:
 
 }  // namespace
 
-bool facesPairUp(const std::vector<glm::vec3>& points, const std::vector<std::vector<int>>& faces) {
+bool facesPairUp(const std::vector<glm::vec3>& points, const std::vector<std::vector<int>>& faces,
+                 bool manifoldVertices) {
     // Points are compared by position, as OpenSCAD's CGAL conversion merges them.
     std::map<std::tuple<float, float, float>, int> ids;
     std::vector<int> id(points.size());
     for (std::size_t i = 0; i < points.size(); ++i)
         id[i] = ids.emplace(std::make_tuple(points[i].x, points[i].y, points[i].z), int(ids.size())).first->second;
     std::map<std::pair<int, int>, int> directed;
+    std::vector<std::map<int, int>> fan(ids.size());  // at each point: next -> previous neighbour of a face
     for (const auto& face : faces) {
         std::vector<int> loop;
         for (int i : face)
             if (loop.empty() || id[i] != loop.back()) loop.push_back(id[i]);
         while (loop.size() > 1 && loop.front() == loop.back()) loop.pop_back();
         if (loop.size() < 3) continue;
-        for (std::size_t k = 0; k < loop.size(); ++k)
-            if (++directed[{loop[k], loop[(k + 1) % loop.size()]}] > 1) return false;
+        const std::size_t n = loop.size();
+        for (std::size_t k = 0; k < n; ++k) {
+            if (++directed[{loop[k], loop[(k + 1) % n]}] > 1) return false;
+            fan[std::size_t(loop[k])][loop[(k + 1) % n]] = loop[(k + n - 1) % n];
+        }
     }
     for (const auto& [edge, count] : directed)
         if (!directed.count({edge.second, edge.first})) return false;
+    if (manifoldVertices)
+        for (const auto& links : fan) {
+            // One cycle through all the point's faces: from any neighbour, previous after previous.
+            if (links.empty()) continue;
+            std::size_t steps = 0;
+            int at = links.begin()->first;
+            do {
+                auto it = links.find(at);
+                if (it == links.end()) return false;
+                at = it->second;
+                ++steps;
+            } while (at != links.begin()->first && steps <= links.size());
+            if (steps != links.size()) return false;
+        }
     return !directed.empty();
 }
 

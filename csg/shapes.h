@@ -22,7 +22,10 @@ FieldPtr makePolyhedron(std::vector<glm::vec3> points, const std::vector<std::ve
 /// Whether every directed edge of the faces (points merged by position) is used once and its
 /// reverse once: a closed polyhedron with consistently oriented faces, inward or outward. OpenSCAD
 /// drops a polyhedron that fails this from every boolean operation ("The given mesh is not closed!").
-bool facesPairUp(const std::vector<glm::vec3>& points, const std::vector<std::vector<int>>& faces);
+/// With `manifoldVertices`, also each point's faces must make one fan (CGAL's polyhedron builder,
+/// which OpenSCAD's conversion uses, refuses two cones meeting at their apex).
+bool facesPairUp(const std::vector<glm::vec3>& points, const std::vector<std::vector<int>>& faces,
+                 bool manifoldVertices = false);
 /// The exact signed distance to a triangle mesh: distance through a bounding volume hierarchy.
 /// Sign: by default from the generalized winding number, evaluated hierarchically (Barill et al.
 /// 2018): right for closed meshes, self-intersecting ones and meshes with small holes. With

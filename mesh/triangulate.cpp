@@ -269,4 +269,102 @@ std::vector<glm::uvec3> triangulateFace(std::span<const glm::vec3> points, std::
     return named();
 }
 
+std::vector<glm::uvec3> triangulateRegionXY(std::span<const glm::vec3> points, std::span<const int> outer,
+                                            const std::vector<std::vector<int>>& holes) {
+    std::vector<int> loop(outer.begin(), outer.end());
+    if (loop.size() < 3) return {};
+    auto area = [&](const std::vector<int>& l, double flipY) {
+        double a = 0;
+        for (std::size_t k = 0; k < l.size(); ++k) {
+            const glm::vec3 &u = points[std::size_t(l[k])], &w = points[std::size_t(l[(k + 1) % l.size()])];
+            a += (double(u.x) * w.y - double(u.y) * w.x) * flipY;
+        }
+        return a;
+    };
+    // Work as if the outer loop ran counter-clockwise (mirrored in y when it does not).
+    const double flipY = area(loop, 1.0) >= 0 ? 1.0 : -1.0;
+    auto at = [&](int i) { return glm::dvec2(points[std::size_t(i)].x, flipY * points[std::size_t(i)].y); };
+
+    struct Hole {
+        std::vector<int> loop;
+        std::size_t right;  // its point of largest x
+    };
+    std::vector<Hole> order;
+    for (const auto& h : holes) {
+        if (h.size() < 3) continue;
+        Hole hole{h, 0};
+        if (area(hole.loop, flipY) > 0) std::reverse(hole.loop.begin(), hole.loop.end());  // holes run clockwise
+        for (std::size_t k = 1; k < hole.loop.size(); ++k) {
+            const glm::dvec2 a = at(hole.loop[k]), b = at(hole.loop[hole.right]);
+            if (a.x > b.x || (a.x == b.x && a.y < b.y)) hole.right = k;
+        }
+        order.push_back(std::move(hole));
+    }
+    std::stable_sort(order.begin(), order.end(),
+                     [&](const Hole& a, const Hole& b) { return at(a.loop[a.right]).x > at(b.loop[b.right]).x; });
+
+    // Whether the segment from loop position k towards m leaves into the region (k's corner opens to it).
+    auto locallyInside = [&](std::size_t k, const glm::dvec2& m) {
+        const std::size_t n = loop.size();
+        const glm::dvec2 a = at(loop[(k + n - 1) % n]), p = at(loop[k]), b = at(loop[(k + 1) % n]);
+        const glm::dvec2 d = m - p;
+        auto cr = [](const glm::dvec2& u, const glm::dvec2& v) { return u.x * v.y - u.y * v.x; };
+        if (cr(p - a, b - p) >= 0) return cr(b - p, d) >= 0 && cr(d, a - p) >= 0;
+        return !(cr(a - p, d) > 0 && cr(d, b - p) > 0);
+    };
+    for (const Hole& h : order) {
+        const glm::dvec2 m = at(h.loop[h.right]);
+        const std::size_t n = loop.size();
+        // The nearest crossing of the ray from m towards +x with the loop, and the end of that edge
+        // furthest along the ray.
+        double best = INFINITY;
+        std::size_t bridge = n;
+        for (std::size_t k = 0; k < n; ++k) {
+            const glm::dvec2 a = at(loop[k]), b = at(loop[(k + 1) % n]);
+            if (!((a.y <= m.y && m.y <= b.y) || (b.y <= m.y && m.y <= a.y))) continue;
+            if (a.y == b.y) {  // along the ray: its nearer end
+                for (std::size_t e : {k, (k + 1) % n}) {
+                    const glm::dvec2 v = at(loop[e]);
+                    if (v.x >= m.x && v.x < best) best = v.x, bridge = e;
+                }
+                continue;
+            }
+            const double x = a.x + (m.y - a.y) * (b.x - a.x) / (b.y - a.y);
+            if (!(x >= m.x && x < best)) continue;
+            best = x;
+            bridge = a.y == m.y ? k : b.y == m.y ? (k + 1) % n : (a.x >= b.x ? k : (k + 1) % n);
+        }
+        if (bridge == n) continue;
+        const glm::dvec2 hit(best, m.y), end = at(loop[bridge]);
+        if (end != hit) {
+            // A point of the loop inside the triangle (m, hit, end) hides `end`: take the one nearest
+            // the ray in angle (then in distance), which m sees.
+            double bestTan = INFINITY, bestDist = INFINITY;
+            std::size_t seen = n;
+            for (std::size_t k = 0; k < n; ++k) {
+                const glm::dvec2 v = at(loop[k]);
+                if (k == bridge || !(v.x > m.x)) continue;
+                const double c1 = cross(m, hit, v), c2 = cross(hit, end, v), c3 = cross(end, m, v);
+                const bool in = (c1 >= 0 && c2 >= 0 && c3 >= 0) || (c1 <= 0 && c2 <= 0 && c3 <= 0);
+                if (!in || !locallyInside(k, m)) continue;
+                const double t = std::abs(m.y - v.y) / (v.x - m.x), dist = glm::dot(v - m, v - m);
+                if (t < bestTan || (t == bestTan && dist < bestDist)) bestTan = t, bestDist = dist, seen = k;
+            }
+            if (seen != n) bridge = seen;
+        }
+        // A point the loop passes twice (an earlier bridge): the pass whose corner opens towards m.
+        if (!locallyInside(bridge, m))
+            for (std::size_t k = 0; k < n; ++k)
+                if (at(loop[k]) == at(loop[bridge]) && locallyInside(k, m)) {
+                    bridge = k;
+                    break;
+                }
+        std::vector<int> joined(loop.begin(), loop.begin() + std::ptrdiff_t(bridge) + 1);
+        for (std::size_t k = 0; k <= h.loop.size(); ++k) joined.push_back(h.loop[(h.right + k) % h.loop.size()]);
+        joined.insert(joined.end(), loop.begin() + std::ptrdiff_t(bridge), loop.end());
+        loop = std::move(joined);
+    }
+    return triangulateFace(points, loop);
+}
+
 }  // namespace isoforge::mesh

@@ -18,4 +18,12 @@ namespace isoforge::mesh {
 /// than 3 distinct points give none. Indices must be valid (the caller checks them).
 std::vector<glm::uvec3> triangulateFace(std::span<const glm::vec3> points, std::span<const int> loop);
 
+/// Triangles covering a region of the xy plane: an outer loop and loops of holes inside it
+/// (indices into `points`, all at one z), in the outer loop's orientation. Each hole is joined
+/// to the outer loop by a bridge from its point of largest x to a point of the loop it sees (Eberly's
+/// method, as in earcut), rightmost hole first; the one loop is then ear-clipped (triangulateFace).
+/// A hole that no ray reaches (not inside the loop) is left out.
+std::vector<glm::uvec3> triangulateRegionXY(std::span<const glm::vec3> points, std::span<const int> outer,
+                                            const std::vector<std::vector<int>>& holes);
+
 }  // namespace isoforge::mesh

@@ -1,0 +1,213 @@
+#include "csg/profile.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+
+#include <glm/geometric.hpp>
+#include <polyclipping/clipper.hpp>
+
+#include "mesh/triangulate.h"
+
+// Why Clipper: OpenSCAD 2021.01 makes every 2D boolean with Clipper 6.4 (Debian's libpolyclipping is
+// that version) on coordinates scaled by 2^16 and truncated to integers; using the same library the
+// same way gives its outlines, vertex for vertex, and so the walls an extrusion builds on them.
+
+namespace isoforge::csg {
+
+namespace {
+
+constexpr double kClipperScale = 65536.0;  // OpenSCAD's CLIPPER_SCALE (1 << 16)
+
+ClipperLib::Path toPath(const Outline2& o, bool keepOrientation) {
+    ClipperLib::Path p;
+    p.reserve(o.points.size());
+    // OpenSCAD converts with IntPoint(cInt, cInt): truncation toward zero.
+    for (const glm::dvec2& v : o.points)
+        p.emplace_back(static_cast<ClipperLib::cInt>(v.x * kClipperScale),
+                       static_cast<ClipperLib::cInt>(v.y * kClipperScale));
+    if (!keepOrientation && !ClipperLib::Orientation(p)) std::reverse(p.begin(), p.end());
+    return p;
+}
+
+ClipperLib::Paths toPaths(const Profile& p) {
+    ClipperLib::Paths out;
+    for (const Outline2& o : p.outlines) out.push_back(toPath(o, p.sanitized));
+    return out;
+}
+
+/// OpenSCAD's ClipperUtils::toPolygon2d: each contour of the tree, its sign from its orientation,
+/// cleaned (CleanPolygon), kept if 3 points are left.
+Profile fromTree(const ClipperLib::PolyTree& tree) {
+    Profile out;
+    for (const ClipperLib::PolyNode* node = tree.GetFirst(); node; node = node->GetNext()) {
+        ClipperLib::Path cleaned;
+        ClipperLib::CleanPolygon(node->Contour, cleaned);
+        if (cleaned.size() < 3) continue;
+        Outline2 o;
+        o.positive = ClipperLib::Orientation(node->Contour);
+        for (const ClipperLib::IntPoint& q : cleaned)
+            o.points.emplace_back(double(q.X) / kClipperScale, double(q.Y) / kClipperScale);
+        out.outlines.push_back(std::move(o));
+    }
+    out.sanitized = true;
+    return out;
+}
+
+/// OpenSCAD's ClipperUtils::sanitize: a union of the paths under the even-odd rule.
+ClipperLib::PolyTree sanitizeTree(const ClipperLib::Paths& paths) {
+    ClipperLib::PolyTree tree;
+    ClipperLib::Clipper c;
+    try {
+        c.AddPaths(paths, ClipperLib::ptSubject, true);
+    } catch (...) {
+        // Clipper's range check (coordinates beyond 2^62 / 2^16): OpenSCAD skips the polygon too.
+        return tree;
+    }
+    c.Execute(ClipperLib::ctUnion, tree, ClipperLib::pftEvenOdd);
+    return tree;
+}
+
+Profile sanitize(const Profile& p) {
+    return fromTree(sanitizeTree(toPaths(p)));
+}
+
+/// x reduced to [0, 360), NaN for huge angles (OpenSCAD's TRIG_HUGE_VAL).
+double reduceDegrees(double x) {
+    if (x < 360.0 && x >= 0.0) return x;
+    constexpr double huge = double(1LL << 26) * 360.0 * double(1LL << 26);
+    if (!(x < huge && x > -huge)) return std::numeric_limits<double>::quiet_NaN();
+    return x - 360.0 * std::floor(x / 360.0);
+}
+
+constexpr double kDegToRad = M_PI / 180.0;
+constexpr double kSqrt3_4 = 0.86602540378443859659;
+
+}  // namespace
+
+double sinDegrees(double x) {
+    x = reduceDegrees(x);
+    if (std::isnan(x)) return x;
+    const bool oppose = x >= 180.0;
+    if (oppose) x -= 180.0;
+    if (x > 90.0) x = 180.0 - x;
+    if (x < 45.0)
+        x = x == 30.0 ? 0.5 : std::sin(x * kDegToRad);
+    else if (x == 45.0)
+        x = M_SQRT1_2;
+    else if (x == 60.0)
+        x = kSqrt3_4;
+    else
+        x = std::cos((90.0 - x) * kDegToRad);
+    return oppose ? -x : x;
+}
+
+double cosDegrees(double x) {
+    x = reduceDegrees(x);
+    if (std::isnan(x)) return x;
+    bool oppose = x >= 180.0;
+    if (oppose) x -= 180.0;
+    if (x > 90.0) {
+        x = 180.0 - x;
+        oppose = !oppose;
+    }
+    if (x > 45.0)
+        x = x == 60.0 ? 0.5 : std::sin((90.0 - x) * kDegToRad);
+    else if (x == 45.0)
+        x = M_SQRT1_2;
+    else if (x == 30.0)
+        x = kSqrt3_4;
+    else
+        x = std::cos(x * kDegToRad);
+    return oppose ? -x : x;
+}
+
+Profile circleProfile(double r, int n) {
+    Profile p;
+    if (!(r > 0) || std::isinf(r) || n < 3) return p;
+    Outline2 o;
+    o.points.resize(std::size_t(n));
+    for (int i = 0; i < n; ++i) {
+        const double phi = (360.0 * i) / n;
+        o.points[std::size_t(i)] = glm::dvec2(r * cosDegrees(phi), r * sinDegrees(phi));
+    }
+    p.outlines.push_back(std::move(o));
+    return p;
+}
+
+Profile squareProfile(glm::dvec2 size, bool center) {
+    Profile p;
+    if (!(size.x > 0 && size.y > 0) || std::isinf(size.x) || std::isinf(size.y)) return p;
+    glm::dvec2 lo(0.0), hi = size;
+    if (center) {
+        lo -= size / 2.0;
+        hi -= size / 2.0;
+    }
+    p.outlines.push_back({{lo, {hi.x, lo.y}, hi, {lo.x, hi.y}}, true});
+    return p;
+}
+
+Profile polygonProfile(const std::vector<glm::dvec2>& points, const std::vector<std::vector<int>>& paths) {
+    Profile raw;
+    raw.sanitized = false;
+    if (paths.empty()) {
+        if (points.size() > 2) raw.outlines.push_back({points, true});
+    } else {
+        for (const auto& path : paths) {
+            Outline2 o;
+            for (int i : path)
+                if (i >= 0 && std::size_t(i) < points.size()) o.points.push_back(points[std::size_t(i)]);
+            raw.outlines.push_back(std::move(o));
+        }
+    }
+    return sanitize(raw);
+}
+
+Profile transformProfile(Profile p, const glm::dmat4& m) {
+    // OpenSCAD's Transform2d: rows (m00 m01 m03), (m10 m11 m13) of the 3D matrix.
+    for (Outline2& o : p.outlines)
+        for (glm::dvec2& v : o.points)
+            v = glm::dvec2(m[0][0] * v.x + m[1][0] * v.y + m[3][0], m[0][1] * v.x + m[1][1] * v.y + m[3][1]);
+    const double det = m[0][0] * m[1][1] - m[1][0] * m[0][1];
+    if (p.sanitized && det <= 0) return sanitize(p);  // a mirror turns the outlines the wrong way
+    return p;
+}
+
+Profile combineProfiles(const std::vector<const Profile*>& children, ProfileOp op) {
+    if (children.empty()) return {};
+    if (children.size() == 1) return *children[0];
+    std::vector<ClipperLib::Paths> sets;
+    for (const Profile* c : children) {
+        ClipperLib::Paths paths = toPaths(*c);
+        if (!c->sanitized) ClipperLib::PolyTreeToPaths(sanitizeTree(paths), paths);
+        sets.push_back(std::move(paths));
+    }
+    ClipperLib::Clipper clipper;
+    ClipperLib::PolyTree result;
+    try {
+        if (op == ProfileOp::Intersection) {
+            // A sequence of binary intersections, as OpenSCAD does them.
+            ClipperLib::Paths source = sets[0];
+            for (std::size_t i = 1; i < sets.size(); ++i) {
+                clipper.AddPaths(source, ClipperLib::ptSubject, true);
+                clipper.AddPaths(sets[i], ClipperLib::ptClip, true);
+                clipper.Execute(ClipperLib::ctIntersection, result, ClipperLib::pftNonZero, ClipperLib::pftNonZero);
+                if (i + 1 != sets.size()) {
+                    ClipperLib::PolyTreeToPaths(result, source);
+                    clipper.Clear();
+                }
+            }
+            return fromTree(result);
+        }
+        for (std::size_t i = 0; i < sets.size(); ++i)
+            clipper.AddPaths(sets[i], i == 0 ? ClipperLib::ptSubject : ClipperLib::ptClip, true);
+        clipper.Execute(op == ProfileOp::Union ? ClipperLib::ctUnion : ClipperLib::ctDifference, result,
+                        ClipperLib::pftNonZero, ClipperLib::pftNonZero);
+    } catch (...) {
+        return {};  // Clipper's range check: nothing, as OpenSCAD gets
+    }
+    return fromTree(result);
+}
+
+}  // namespace isoforge::csg

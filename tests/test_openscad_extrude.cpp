@@ -1,0 +1,152 @@
+// OpenSCAD's twisted and scaled linear_extrude: the same polyhedron OpenSCAD 2021.01 builds, its 2D
+// booleans by Clipper, caps of profiles with holes, and the extrusions OpenSCAD drops from booleans.
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "csg/profile.h"
+#include "csg/scene.h"
+#include "mesh/check.h"
+#include "mesh/triangulate.h"
+#include "test_util.h"
+#include "volume/marching_cubes.h"
+#include "volume/sample.h"
+#include "volume/vdb_io.h"
+
+using namespace isoforge;
+
+namespace {
+struct Init {
+    Init() { volume::initializeOpenVdb(); }
+} init;
+
+csg::Profile unionOf(const csg::Profile& a, const csg::Profile& b) {
+    return combineProfiles({&a, &b}, csg::ProfileOp::Union);
+}
+csg::Profile differenceOf(const csg::Profile& a, const csg::Profile& b) {
+    return combineProfiles({&a, &b}, csg::ProfileOp::Difference);
+}
+csg::Profile moved(const csg::Profile& p, double x, double y) {
+    glm::dmat4 m(1.0);
+    m[3] = glm::dvec4(x, y, 0, 1);
+    return transformProfile(p, m);
+}
+csg::ExtrudeParams extrusion(double twist, int slices, glm::dvec2 scale) {
+    csg::ExtrudeParams e;
+    e.height = 5;
+    e.twistDeg = twist;
+    e.slices = slices;
+    e.scale = scale;
+    return e;
+}
+}  // namespace
+
+TEST(OpenScadExtrude, TheSamePolyhedronAsOpenScad) {
+    // Each case was exported by OpenSCAD 2021.01 (`openscad -o X.stl`, linear_extrude(height = 5, ...)),
+    // its STL's volume summed in double: the meshes are the same, so the volumes agree to float rounding.
+    struct Case {
+        const char* what;
+        csg::Profile profile;
+        csg::ExtrudeParams e;
+        double openscad;
+    };
+    const csg::Profile ring = differenceOf(csg::squareProfile({2, 2}, true), csg::squareProfile({1, 1}, true));
+    const csg::Profile frame =
+        differenceOf(moved(csg::squareProfile({10, 10}, false), -1, -1), csg::squareProfile({8, 8}, false));
+    const csg::Profile pair =
+        unionOf(moved(csg::squareProfile({1, 1}, false), 0.5, 0), moved(csg::squareProfile({1, 1}, false), -0.5, 0));
+    const std::vector<Case> cases = {
+        {"square(10), twist 45, 3 slices", csg::squareProfile({10, 10}, false), extrusion(45, 3, {1, 1}),
+         537.4572745631979},
+        // No slices given: OpenSCAD's count from $fa = 12, $fs = 2 (get_helix_slices).
+        {"triangle, twist -45", csg::polygonProfile({{-5, -2.5}, {5, -2.5}, {0, 2.5}}, {}), extrusion(-45, 0, {1, 1}),
+         140.45691205964687},
+        {"square ring, twist 180, scale [0, 1]", ring, extrusion(180, 20, {0, 1}), 7.858346590727198},
+        {"two touching squares, twist 180, scale [0, 0]", pair, extrusion(180, 20, {0, 0}), 3.5347572614587803},
+        // get_diagonal_slices for the uneven scale, its walls split along the shorter diagonal.
+        {"circle($fn = 7), twist 90, scale [2, 0.5]", csg::circleProfile(3, 7), extrusion(90, 0, {2, 0.5}),
+         138.25614383424582},
+        {"square frame, twist 30, 2 slices", frame, extrusion(30, 2, {1, 1}), 193.48432960546245},
+    };
+    for (const Case& c : cases) {
+        const mesh::TriMesh m = csg::extrudeProfile(c.profile, c.e);
+        const mesh::MeshReport r = mesh::check(m);
+        EXPECT_NEAR(r.volume, c.openscad, 2e-6 * c.openscad) << c.what;
+        EXPECT_TRUE(r.isWatertight() && r.isOriented()) << c.what << "\n" << r.toString();
+    }
+}
+
+TEST(OpenScadExtrude, ClipperOutlinesAndOpenScadsTrigonometry) {
+    // A hole: one positive outline counter-clockwise, one negative clockwise.
+    const csg::Profile ring = differenceOf(csg::squareProfile({2, 2}, true), csg::squareProfile({1, 1}, true));
+    ASSERT_EQ(ring.outlines.size(), 2u);
+    EXPECT_NE(ring.outlines[0].positive, ring.outlines[1].positive);
+    // A clockwise polygon is turned counter-clockwise; a mirror keeps outlines positive.
+    const csg::Profile cw = csg::polygonProfile({{0, 0}, {0, 1}, {1, 0}}, {});
+    ASSERT_EQ(cw.outlines.size(), 1u);
+    EXPECT_TRUE(cw.outlines[0].positive);
+    glm::dmat4 mirror(1.0);
+    mirror[0][0] = -1;
+    const csg::Profile m = transformProfile(csg::squareProfile({1, 1}, false), mirror);
+    ASSERT_EQ(m.outlines.size(), 1u);
+    EXPECT_TRUE(m.outlines[0].positive);
+    // Exact at OpenSCAD's special angles, so that a half turn lands points exactly.
+    EXPECT_EQ(csg::sinDegrees(180), 0.0);
+    EXPECT_EQ(csg::cosDegrees(-90), 0.0);
+    EXPECT_EQ(csg::sinDegrees(30), 0.5);
+    EXPECT_EQ(csg::cosDegrees(360 + 60), 0.5);
+    EXPECT_NEAR(csg::sinDegrees(10), std::sin(10 * M_PI / 180), 1e-15);
+}
+
+TEST(OpenScadExtrude, CapsOfRegionsWithHoles) {
+    // A 10 x 10 square with two square holes and a triangular one, joined by bridges and ear-clipped.
+    std::vector<glm::vec3> p = {{0, 0, 0}, {10, 0, 0}, {10, 10, 0}, {0, 10, 0}};
+    auto hole = [&](std::vector<glm::vec2> q) {
+        std::vector<int> loop;
+        for (const glm::vec2& v : q) {
+            loop.push_back(int(p.size()));
+            p.emplace_back(v.x, v.y, 0.f);
+        }
+        return loop;
+    };
+    const std::vector<std::vector<int>> holes = {
+        hole({{1, 1}, {1, 3}, {3, 3}, {3, 1}}), hole({{6, 6}, {6, 8}, {8, 8}, {8, 6}}), hole({{2, 6}, {2, 8}, {4, 6}})};
+    const std::vector<int> outer = {0, 1, 2, 3};
+    const auto tris = mesh::triangulateRegionXY(p, outer, holes);
+    EXPECT_EQ(tris.size(), 4 + 4 + 4 + 3 - 2 + 2 * 3);  // n - 2 + 2 per hole
+    double area = 0;
+    for (const auto& t : tris) {
+        const glm::vec3 a = p[t.x], b = p[t.y], c = p[t.z];
+        const double s = 0.5 * ((b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x));
+        EXPECT_GT(s, 0) << "every triangle counter-clockwise, as the outer loop";
+        area += s;
+    }
+    EXPECT_NEAR(area, 100 - 4 - 4 - 2, 1e-9);
+}
+
+TEST(OpenScadExtrude, ExportsGetOpenScadsSolidAndItsDrops) {
+    auto meshOf = [](const std::string& text, std::string* warnings = nullptr) {
+        const auto s = csg::parseScene(text, "x.csg");
+        if (warnings)
+            for (const auto& w : s.warnings) *warnings += w.message + "\n";
+        volume::SampleOptions o;
+        o.voxelSize = 0.02f;
+        return test::expectClosedSurface(volume::extractIsosurface(*volume::sample(s.root, o)), text);
+    };
+    // OpenSCAD's export of a twisted square: its sliced walls (a continuous twist holds 1.5% more).
+    const std::string twisted =
+        "linear_extrude(height = 5, center = false, convexity = 1, twist = 45, slices = 3, scale = [1, 1]) {\n"
+        "  square(size = [1, 1], center = false);\n}\n";
+    EXPECT_NEAR(meshOf(twisted).volume, 537.4572745631979 / 100, 0.003 * 5.374572745631979);
+    // Two squares pinched to one point by scale 0: kept alone, dropped with a warning beside a cube
+    // (OpenSCAD's CGAL conversion refuses the pinched vertex: "The given mesh is not closed!").
+    const std::string pinched =
+        "linear_extrude(height = 5, center = false, convexity = 1, twist = 180, slices = 20, scale = [0, 0]) {\n"
+        "  translate([1, 0]) square(size = [1, 1], center = true);\n"
+        "  translate([-1, 0]) square(size = [1, 1], center = true);\n}\n";
+    EXPECT_GT(meshOf(pinched).volume, 0.5);
+    std::string warnings;
+    const double withCube = meshOf("translate([20, 0, 0]) cube(size = [1, 1, 1]);\n" + pinched, &warnings).volume;
+    EXPECT_NEAR(withCube, 1.0, 0.01);
+    EXPECT_NE(warnings.find("The given mesh is not closed!"), std::string::npos) << warnings;
+}
