@@ -63,6 +63,10 @@ Closest closestOnTriangle(const glm::vec3& p, const glm::vec3& a, const glm::vec
 double solidAngle(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
     const double la = glm::length(a), lb = glm::length(b), lc = glm::length(c);
     const double num = glm::dot(a, glm::cross(b, c));
+    // A point in the triangle's plane sees no solid angle. Rounding makes num and den both tiny for a
+    // point on one of its edges, where atan2 would return anything up to +-pi: a grid sample on the
+    // bottom edge of a mesh then counted as inside, and marching cubes made a blob around it.
+    if (std::abs(num) <= 1e-12 * la * lb * lc) return 0.0;
     const double den = la * lb * lc + glm::dot(a, b) * lc + glm::dot(b, c) * la + glm::dot(c, a) * lb;
     return 2.0 * std::atan2(num, den);
 }

@@ -7,8 +7,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-60}
-CXX=clang++ CC=clang cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DISOFORGE_FUZZ=ON \
-    -DISOFORGE_BUILD_TESTS=OFF -DISOFORGE_BUILD_BENCH=OFF >/dev/null
+source scripts/fuzz_tree.sh
+configure_fuzz_tree
 cmake --build build-fuzz --target fuzz_scene fuzz_triangulate
 corpus=build-fuzz/corpus
 mkdir -p "$corpus"

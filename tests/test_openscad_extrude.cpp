@@ -6,6 +6,7 @@
 
 #include "csg/profile.h"
 #include "csg/scene.h"
+#include "csg/shapes.h"
 #include "mesh/check.h"
 #include "mesh/triangulate.h"
 #include "test_util.h"
@@ -149,4 +150,26 @@ TEST(OpenScadExtrude, ExportsGetOpenScadsSolidAndItsDrops) {
     const double withCube = meshOf("translate([20, 0, 0]) cube(size = [1, 1, 1]);\n" + pinched, &warnings).volume;
     EXPECT_NEAR(withCube, 1.0, 0.01);
     EXPECT_NE(warnings.find("The given mesh is not closed!"), std::string::npos) << warnings;
+}
+
+TEST(OpenScadExtrude, MeshesSignedByWindingNumberMakeNoBlobsAtSamplesOnEdges) {
+    // OpenSCAD's export of extrude.scad's tapered screw as a mesh signed by the generalized winding
+    // number (as polyhedra and mesh() files are): its bottom edges lie on grid samples (z = 0), where
+    // rounding gave the solid angle of a triangle seen from its own edge as up to +-2 pi, and marching
+    // cubes made 4 blobs around such samples at this voxel size (15 at 0.1).
+    const mesh::TriMesh m = csg::extrudeProfile(csg::squareProfile({10, 10}, true), [] {
+        csg::ExtrudeParams e;
+        e.height = 20;
+        e.twistDeg = 90;
+        e.scale = {0.5, 0.5};
+        e.slices = 200;
+        return e;
+    }());
+    std::vector<glm::uvec3> tris(m.triangles.begin(), m.triangles.end());
+    const auto f = csg::makeTriangleMeshField(m.positions, tris, "screw", nullptr, false);
+    volume::SampleOptions o;
+    o.voxelSize = 0.2f;
+    const auto r = test::expectClosedSurface(volume::extractIsosurface(*volume::sample(f, o)), "screw");
+    EXPECT_EQ(r.components, 1u);
+    EXPECT_NEAR(r.volume, 1169.709, 0.005 * 1169.709);  // OpenSCAD's STL
 }
