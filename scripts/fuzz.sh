@@ -1,15 +1,16 @@
 #!/usr/bin/env bash
-# Builds the fuzz targets with clang (libFuzzer + ASan + UBSan) into build-fuzz/ and runs them for a
-# bounded time: the scene parser on a corpus seeded from the examples, the OpenSCAD exports (ours and,
-# where installed, every 3D model of openscad-testing-data exported by openscad) and the docs; then
-# polyhedron-face triangulation for a third of that time.
+# Builds the fuzz targets with clang (libFuzzer + ASan + UBSan) into build-fuzz/ and runs each for a
+# bounded time: the scene parser for SECONDS on a corpus seeded from the examples, the OpenSCAD exports
+# (ours and, where installed, every 3D model of openscad-testing-data exported by openscad) and the docs;
+# then, for a third of that time each, polyhedron-face triangulation, the mesh readers (PLY, OBJ, STL,
+# OFF; seeded with the starts of real files) and the expression and .vm parsers.
 # Usage: scripts/fuzz.sh [SECONDS]   (default 60). Exit status non-zero on any crash, leak or hang.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-60}
 source scripts/fuzz_tree.sh
 configure_fuzz_tree
-cmake --build build-fuzz --target fuzz_scene fuzz_triangulate
+cmake --build build-fuzz --target fuzz_scene fuzz_triangulate fuzz_mesh_readers fuzz_expression
 corpus=build-fuzz/corpus
 mkdir -p "$corpus"
 cp examples/*.isf tests/data/openscad/*.csg "$corpus"/ 2>/dev/null || true
@@ -23,6 +24,33 @@ export LSAN_OPTIONS=suppressions=$PWD/tests/lsan.supp
 # Bounded: total time, input length, per-input time and memory.
 build-fuzz/fuzz_scene "$corpus" -max_total_time="$seconds" -max_len=4096 -timeout=10 -rss_limit_mb=2048 \
     -print_final_stats=1 -artifact_prefix=build-fuzz/ 2>&1 | tail -25
+third=$(( (seconds + 2) / 3 ))
+run() {  # target corpus max_len
+  build-fuzz/$1 "$2" -max_total_time="$third" -max_len="$3" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
+      -artifact_prefix=build-fuzz/ 2>&1 | tail -12
+}
 mkdir -p build-fuzz/corpus-triangulate
-build-fuzz/fuzz_triangulate build-fuzz/corpus-triangulate -max_total_time=$(( (seconds + 2) / 3 )) -max_len=2048 \
-    -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 -artifact_prefix=build-fuzz/ 2>&1 | tail -12
+run fuzz_triangulate build-fuzz/corpus-triangulate 2048
+
+# Mesh readers: a byte for the format (0 PLY, 1 OBJ, 2 STL, 3 OFF), then the file: the first 3 KB of real
+# files, and whole small ones.
+seeds=build-fuzz/corpus-mesh
+mkdir -p "$seeds"
+seed() { { printf "\\$(printf %03o "$1")"; cat; } > "$seeds/$2"; }
+head -c 3000 data/cow.obj | seed 1 cow.obj
+shared=../shared/data/meshes
+[ -f $shared/bunny/bunny.ply ] && head -c 3000 $shared/bunny/bunny.ply | seed 0 bunny.ply
+[ -f $shared/vase/Vase.stl ] && head -c 3000 $shared/vase/Vase.stl | seed 2 vase.stl
+printf 'ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 4\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n' | seed 0 tet.ply
+printf 'OFF\n4 4 6\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n' | seed 3 tet.off
+printf 'solid t\nfacet normal 0 0 -1\nouter loop\nvertex 0 0 0\nvertex 0 1 0\nvertex 1 0 0\nendloop\nendfacet\nendsolid t\n' | seed 2 tri.stl
+run fuzz_mesh_readers "$seeds" 4096
+
+# Expressions (byte 0) and .vm tapes (byte 1): the README's expressions and the start of the bundled model.
+seeds=build-fuzz/corpus-expression
+mkdir -p "$seeds"
+grep -rhoE -- '--expr "[^"]+"' README.md docs/*.md | sed 's/^--expr "//; s/"$//' | sort -u | while read -r e; do
+  printf '%s' "$e" | seed 0 "expr-$(printf '%s' "$e" | md5sum | cut -c1-8)"
+done
+head -c 3000 data/text.vm | seed 1 text.vm
+run fuzz_expression "$seeds" 4096
