@@ -511,6 +511,22 @@ TEST(Volumes, EveryCutOfEveryFormatIsAnErrorNotACrash) {
     EXPECT_EQ(reads + errors, 160u);  // and every flipped one either reads or is refused
 }
 
+TEST(Volumes, FuzzFindingsAreErrorsNamingTheFile) {
+    // Inputs the fuzzer (tests/fuzz_volume_readers.cpp) found, kept in tests/data/fuzz/volume/: each must be an
+    // IoError that names the file (a bad file exits 1), and nothing may crash or leak of ours on the way.
+    std::size_t n = 0;
+    for (const auto& e : std::filesystem::directory_iterator(test::sourceDir() / "tests/data/fuzz/volume")) {
+        ++n;
+        try {
+            volume::readVolume(e.path());
+            ADD_FAILURE() << e.path() << " was read";
+        } catch (const IoError& err) {
+            EXPECT_NE(std::string(err.what()).find(e.path().filename().string()), std::string::npos) << err.what();
+        }
+    }
+    EXPECT_GE(n, 1u);
+}
+
 TEST(Volumes, GridsNearOneLevelMeshLikeTheWholeVolume) {
     // toGridNearLevel keeps only the blocks near the level: marching cubes must give the very same
     // mesh (vertices, normals, triangles) as on the whole volume's grid, on real CT at skin and bone

@@ -339,6 +339,12 @@ DenseVolume readMetaImage(const std::filesystem::path& path) {
             throw IoError(path.string() + ":" + std::to_string(file.second) +
                           ": ElementDataFile lists several files; only one data file is supported");
         dataPath = path.parent_path() / file.first;
+        // A directory opens as a stream on Linux and then throws from inside the read (found by
+        // tests/fuzz_volume_readers.cpp: "ElementDataFile = ." ended the process).
+        std::error_code ec;
+        if (!std::filesystem::is_regular_file(dataPath, ec))
+            throw IoError(path.string() + ":" + std::to_string(file.second) + ": the data file " + dataPath.string() +
+                          " is not a regular file");
         std::ifstream d(dataPath, std::ios::binary);
         if (!d)
             throw IoError(path.string() + ":" + std::to_string(file.second) + ": cannot open the data file " +
