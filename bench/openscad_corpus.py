@@ -203,6 +203,7 @@ def main():
     if subprocess.run(["which", "openscad"], capture_output=True).returncode != 0:
         print("openscad_corpus: openscad is not installed (Debian package openscad)", file=sys.stderr)
         return 2
+    args.cache = os.path.abspath(args.cache)  # openscad writes a relative -o path beside the model
     os.makedirs(args.cache, exist_ok=True)
     # A copy of the executable, so that a rebuild during a long run does not pull it away.
     copy = os.path.join(args.cache, "isoforge.bench")
