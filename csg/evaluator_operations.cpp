@@ -1,6 +1,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <stdexcept>
 
 #include <glm/geometric.hpp>
 #include <glm/gtc/matrix_transform.hpp>
@@ -279,7 +280,13 @@ std::optional<FieldPtr> Evaluator::operation(const Call& site) {
 FieldPtr Evaluator::slicedExtrusion(const Call& site, const std::vector<FieldPtr>& kids, const ExtrudeParams& e) {
     std::optional<Profile> p = combinedProfile(kids, ProfileOp::Union);
     if (!p || p->outlines.empty()) return nullptr;
-    mesh::TriMesh m = extrudeProfile(*p, e);
+    mesh::TriMesh m;
+    try {
+        m = extrudeProfile(*p, e);
+    } catch (const std::length_error& err) {
+        d_.warn(site.s.line, site.s.col, std::string(err.what()) + ": the twist is continuous here instead");
+        return nullptr;
+    }
     // OpenSCAD converts it to a CGAL polyhedron inside a boolean operation, which fails for a mesh
     // whose faces do not pair up or whose walls meet at one point (a scale of 0 pinching them
     // together): it skips it there.

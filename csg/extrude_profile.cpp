@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <stdexcept>
+#include <string>
 #include <tuple>
 
 #include "csg/profile.h"
@@ -48,17 +50,19 @@ constexpr double kGridFine = 0.00000095367431640625;
 }  // namespace
 
 int openscadSlices(const Profile& p, const ExtrudeParams& e) {
+    // In double, and clamped before the conversion: a hostile twist or $fn would overflow an int.
+    auto count = [](double n) { return !(n >= 1.0) ? 1 : n >= kMaxSlices ? kMaxSlices : static_cast<int>(n); };
     const double fn = e.fn, fa = std::max(e.fa, 0.01), fs = std::max(e.fs, 0.01);
     if (e.twistDeg != 0) {
         double r2 = 0;
         for (const Outline2& o : p.outlines)
             for (const glm::dvec2& v : o.points) r2 = std::max(r2, glm::dot(v, v));
         const double twist = std::fabs(e.twistDeg);
-        const int least = std::max(static_cast<int>(std::ceil(twist / 120.0)), 1);
+        const double least = std::max(std::ceil(twist / 120.0), 1.0);
         const double r = std::sqrt(r2);
-        if (r < kGridFine || std::isinf(fn) || std::isnan(fn)) return least;
-        if (fn > 0) return std::max(static_cast<int>(std::ceil(twist / 360.0 * fn)), least);
-        const int byAngle = static_cast<int>(std::ceil(twist / fa));
+        if (r < kGridFine || std::isinf(fn) || std::isnan(fn)) return count(least);
+        if (fn > 0) return count(std::max(std::ceil(twist / 360.0 * fn), least));
+        const double byAngle = std::ceil(twist / fa);
         double length;
         if ((e.scale.x == 1.0 && e.scale.y == 1.0) || e.scale.x != e.scale.y) {
             // Calc::get_helix_slices: a helix of radius r.
@@ -72,8 +76,8 @@ int openscadSlices(const Profile& p, const ExtrudeParams& e) {
             const double spiral = archimedesLength(a, end) - archimedesLength(a, start);
             length = std::sqrt(spiral * spiral + e.height * e.height);
         }
-        const int byLength = static_cast<int>(std::ceil(length / fs));
-        return std::max(std::min(byAngle, byLength), least);
+        const double byLength = std::ceil(length / fs);
+        return count(std::max(std::min(byAngle, byLength), least));
     }
     if (e.scale.x != e.scale.y) {  // Calc::get_diagonal_slices
         double d2 = 0;
@@ -83,16 +87,28 @@ int openscadSlices(const Profile& p, const ExtrudeParams& e) {
                 d2 = std::max(d2, glm::dot(d, d));
             }
         if (std::sqrt(d2) < kGridFine || std::isinf(fn) || std::isnan(fn)) return 1;
-        if (fn > 0) return std::max(static_cast<int>(fn), 1);
-        return std::max(static_cast<int>(std::ceil(std::sqrt(d2 + e.height * e.height) / fs)), 1);
+        if (fn > 0) return count(fn);
+        return count(std::ceil(std::sqrt(d2 + e.height * e.height) / fs));
     }
     return 1;
+}
+
+double& maxExtrusionTriangles() {
+    static double limit = 4e6;
+    return limit;
 }
 
 mesh::TriMesh extrudeProfile(const Profile& p, const ExtrudeParams& e) {
     mesh::TriMesh m;
     if (!(e.height > 0) || p.outlines.empty()) return m;
     const int slices = e.slices > 0 ? e.slices : openscadSlices(p, e);
+    std::size_t points = 0;
+    for (const Outline2& o : p.outlines) points += o.points.size();
+    if (double(slices) * double(points) * 2 > maxExtrusionTriangles())
+        throw std::length_error(std::to_string(slices) + " slices of " + std::to_string(points) + " points make " +
+                                std::to_string(std::size_t(2 * double(slices) * double(points))) +
+                                " wall triangles; OpenSCAD's sliced mesh is built up to " +
+                                std::to_string(std::size_t(maxExtrusionTriangles())));
     const double h1 = e.center ? -e.height / 2 : 0.0, h2 = e.center ? e.height / 2 : e.height;
     std::vector<std::size_t> offset;  // first vertex of each outline within a ring
     std::size_t ring = 0;

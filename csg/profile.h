@@ -56,7 +56,12 @@ struct ExtrudeParams {
     int slices = 0;
     double fn = 0, fa = 12, fs = 2;
 };
+/// @throw std::length_error past maxExtrusionTriangles() wall triangles (a hostile slice count).
 mesh::TriMesh extrudeProfile(const Profile& p, const ExtrudeParams& e);
+/// Wall triangles past which an export keeps the continuous twist (with a warning): 4 million. The scene
+/// fuzzer lowers it at start-up, so that a mutated slice count stays within its time limit under ASan.
+double& maxExtrusionTriangles();
+inline constexpr int kMaxSlices = 10'000'000;
 
 /// Slices OpenSCAD gives an extrusion without an explicit `slices` (Calc::get_helix_slices,
 /// get_conical_helix_slices, get_diagonal_slices).

@@ -23,12 +23,13 @@ awk -v dir="$corpus" '/^```scad/ { n++; f = sprintf("%s/doc%02d.isf", dir, n); i
 export ASAN_OPTIONS=detect_leaks=1:fast_unwind_on_malloc=0:intercept_tls_get_addr=0
 export LSAN_OPTIONS=suppressions=$PWD/tests/lsan.supp
 # Bounded: total time, input length, per-input time and memory.
-build-fuzz/fuzz_scene "$corpus" -max_total_time="$seconds" -max_len=4096 -timeout=10 -rss_limit_mb=2048 \
-    -print_final_stats=1 -artifact_prefix=build-fuzz/ 2>&1 | tail -25
+# Absolute paths: fuzz_scene works in an empty directory of its own (tests/fuzz_scene.cpp).
+build-fuzz/fuzz_scene "$PWD/$corpus" -max_total_time="$seconds" -max_len=4096 -timeout=10 -rss_limit_mb=2048 \
+    -print_final_stats=1 -artifact_prefix="$PWD/build-fuzz/" 2>&1 | tail -25
 third=$(( (seconds + 2) / 3 ))
 run() {  # target corpus max_len
-  build-fuzz/$1 "$2" -max_total_time="$third" -max_len="$3" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
-      -artifact_prefix=build-fuzz/ 2>&1 | tail -12
+  build-fuzz/$1 "$PWD/$2" -max_total_time="$third" -max_len="$3" -timeout=10 -rss_limit_mb=2048 \
+      -print_final_stats=1 -artifact_prefix="$PWD/build-fuzz/" 2>&1 | tail -12
 }
 mkdir -p build-fuzz/corpus-triangulate
 run fuzz_triangulate build-fuzz/corpus-triangulate 2048

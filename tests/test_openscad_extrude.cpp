@@ -1,6 +1,7 @@
 // OpenSCAD's twisted and scaled linear_extrude: the same polyhedron OpenSCAD 2021.01 builds, its 2D
 // booleans by Clipper, caps of profiles with holes, and the extrusions OpenSCAD drops from booleans.
 #include <cmath>
+#include <stdexcept>
 
 #include <gtest/gtest.h>
 
@@ -172,4 +173,20 @@ TEST(OpenScadExtrude, MeshesSignedByWindingNumberMakeNoBlobsAtSamplesOnEdges) {
     const auto r = test::expectClosedSurface(volume::extractIsosurface(*volume::sample(f, o)), "screw");
     EXPECT_EQ(r.components, 1u);
     EXPECT_NEAR(r.volume, 1169.709, 0.005 * 1169.709);  // OpenSCAD's STL
+}
+
+TEST(OpenScadExtrude, HostileSliceCountsAreBounded) {
+    // A twist of 1e12 degrees asks OpenSCAD's formula for more slices than an int holds; the count is
+    // clamped, and past 4 million wall triangles the export keeps the continuous twist, with a warning.
+    csg::ExtrudeParams e = extrusion(1e12, 0, {1, 1});
+    EXPECT_EQ(csg::openscadSlices(csg::squareProfile({1, 1}, false), e), csg::kMaxSlices);
+    e.fa = std::nan("");
+    EXPECT_GE(csg::openscadSlices(csg::squareProfile({1, 1}, false), e), 1);
+    EXPECT_THROW(csg::extrudeProfile(csg::squareProfile({1, 1}, false), extrusion(1e12, 0, {1, 1})), std::length_error);
+    const auto s = csg::parseScene(
+        "linear_extrude(height = 5, center = false, convexity = 1, twist = 1e12, scale = [1, 1], $fn = 0, $fa = 12, "
+        "$fs = 2) {\n  square(size = [1, 1], center = false);\n}\n",
+        "x.csg");
+    ASSERT_EQ(s.warnings.size(), 1u);
+    EXPECT_NE(s.warnings[0].message.find("the twist is continuous here instead"), std::string::npos);
 }
