@@ -32,7 +32,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 SHARE = "/usr/share/openscad"
 # Constructs isoforge refuses (docs/openscad.md): a model using one is listed as unsupported.
-UNSUPPORTED = ["minkowski", "hull", "import", "surface", "text", "projection", "roof", "offset"]
+UNSUPPORTED = ["import", "surface", "text", "projection", "roof", "offset"]
 
 
 def corpus():

@@ -24,6 +24,10 @@ Dimension dimensionOf(const FieldPtr& f) {
 }
 }  // namespace
 
+bool Evaluator::planar(const FieldPtr& f) {
+    return dimensionOf(f) == Dimension::Planar;
+}
+
 /// Fields of the statements in order (assignments first update the scope, as OpenSCAD does).
 std::vector<FieldPtr> Evaluator::run(const std::vector<Statement>& list, Scope& scope, int depth, Want want) {
     for (const Statement& s : list)
@@ -113,18 +117,68 @@ std::vector<FieldPtr> Evaluator::children(const Statement& s, const Scope& scope
 FieldPtr Evaluator::group(const Statement& s, const Scope& scope, int depth) {
     auto kids = children(s, scope, depth);
     if (kids.empty()) return nullptr;
-    std::optional<Profile> p = combinedProfile(kids, ProfileOp::Union);
-    FieldPtr u = makeUnion(std::move(kids));
-    return p ? withProfile(u, std::move(*p)) : u;
+    if (kids.size() == 1) return kids[0];
+    return carried(makeUnion(kids), kids);
 }
 FieldPtr Evaluator::transformed(const Statement& s, const Scope& scope, int depth, const glm::dmat4& m) {
     FieldPtr g = group(s, scope, depth);
     if (!g) return nullptr;
-    FieldPtr t = implicit::makeTransformed(g, glm::mat4(m));
-    if (const Profile* p = profileOf(g)) return withProfile(t, transformProfile(*p, m));
-    return t;
+    return carried(implicit::makeTransformed(g, glm::mat4(m)), {g}, &m);
 }
-
+FieldPtr Evaluator::carried(FieldPtr f, const std::vector<FieldPtr>& kids, const glm::dmat4* m) {
+    if (kids.size() == 1 && f == kids[0]) return f;  // a union of one child is the child: it has its own
+    if (std::optional<Profile> p = combinedProfile(kids, ProfileOp::Union))
+        withProfile(f, m ? transformProfile(std::move(*p), *m) : std::move(*p));
+    if (hasParts(kids)) {
+        const std::optional<glm::dmat4> move = m ? std::optional(*m) : std::nullopt;
+        withParts(f, [this, kids, move]() -> std::optional<Parts> {
+            std::optional<Parts> p = combinedParts(kids);
+            if (p && move) return transformParts(std::move(*p), *move);
+            return p;
+        });
+    }
+    return f;
+}
+void Evaluator::carryParts(const FieldPtr& f, const std::vector<FieldPtr>& kids, bool difference) {
+    if (!hasParts(kids)) return;
+    withParts(f, [this, f, kids, difference]() -> std::optional<Parts> {
+        std::vector<const Parts*> ps;
+        for (const FieldPtr& k : kids) {
+            const Parts* p = partsOf(k);
+            if (!p) return std::nullopt;
+            ps.push_back(p);
+        }
+        return difference ? differenceParts(ps, f) : intersectionParts(ps);
+    });
+}
+FieldPtr Evaluator::withParts(FieldPtr f, PartsMaker make) {
+    parts_[f.get()] = {f, std::move(make), false, std::nullopt};
+    return f;
+}
+const Parts* Evaluator::partsOf(const FieldPtr& f) {
+    auto it = parts_.find(f.get());
+    if (it == parts_.end()) return nullptr;
+    LazyParts& l = it->second;
+    if (!l.made) {
+        l.parts = l.make();
+        l.made = true;
+    }
+    return l.parts ? &*l.parts : nullptr;
+}
+bool Evaluator::hasParts(const std::vector<FieldPtr>& kids) const {
+    for (const FieldPtr& k : kids)
+        if (!parts_.count(k.get())) return false;
+    return true;
+}
+std::optional<Parts> Evaluator::combinedParts(const std::vector<FieldPtr>& kids) {
+    std::vector<const Parts*> ps;
+    for (const FieldPtr& k : kids) {
+        const Parts* p = partsOf(k);
+        if (!p) return std::nullopt;
+        ps.push_back(p);
+    }
+    return uniteParts(ps);
+}
 FieldPtr Evaluator::withProfile(FieldPtr f, Profile p) {
     profiles_[f.get()] = {f, std::move(p)};
     return f;
@@ -156,7 +210,7 @@ FieldPtr Evaluator::dropped(const Call& site, const std::string& why) {
     note(site.depth, site.s.name + " (empty, ignored)", site.s);
     // An empty solid, not nothing: as the first child of a difference it empties the difference,
     // and in an intersection the intersection, as in OpenSCAD. As a 2D object, an empty polygon.
-    return withProfile(makeEmpty(), Profile{});
+    return withParts(withProfile(makeEmpty(), Profile{}), [] { return Parts{}; });
 }
 
 FieldPtr Evaluator::leafOf(const Call& c, FieldPtr f, const std::string& what) {
@@ -188,11 +242,12 @@ FieldPtr Evaluator::call(const Statement& s, const Scope& outer, int depth) {
     if (auto f = primitive3D(c)) return *f;
     if (auto f = shape2D(c)) return *f;
     if (auto f = operation(c)) return *f;
+    if (auto f = convexOperation(c)) return *f;
     if (auto f = extensionShape(c)) return *f;
     if (auto f = sceneStatement(c)) return *f;
     if (n == "echo" || n == "assert") return nullptr;
-    static const char* unsupported[] = {"minkowski", "hull", "import", "surface",          "text", "projection",
-                                        "children",  "let",  "for",    "intersection_for", "if"};
+    static const char* unsupported[] = {"import", "surface",          "text", "projection", "children", "let",
+                                        "for",    "intersection_for", "if"};
     for (const char* u : unsupported)
         if (n == u)
             throw EvalError{

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -14,6 +15,7 @@
 
 #include "csg/args.h"
 #include "csg/diagnostics.h"
+#include "csg/parts.h"
 #include "csg/profile.h"
 #include "csg/scene.h"
 #include "csg/syntax.h"
@@ -39,6 +41,8 @@ public:
         return combining(list, [&] { return run(list, scope, 0); });
     }
     FieldPtr rootOverride() const { return root_; }
+    /// Whether a field is a 2D object (bounded in x and y, the same along z).
+    static bool planar(const FieldPtr& f);
     std::string outline;
 
 private:
@@ -88,6 +92,8 @@ private:
     std::optional<FieldPtr> shape2D(const Call& site);
     std::optional<FieldPtr> extensionShape(const Call& site);
     std::optional<FieldPtr> operation(const Call& site);
+    /// hull() and minkowski() (evaluator_hull.cpp).
+    std::optional<FieldPtr> convexOperation(const Call& site);
     std::optional<FieldPtr> sceneStatement(const Call& site);
 
     /// OpenSCAD's polygons of the 2D objects made of circle, square, polygon, 2D transforms, colours
@@ -101,8 +107,29 @@ private:
     /// a child without a profile).
     FieldPtr slicedExtrusion(const Call& site, const std::vector<FieldPtr>& kids, const ExtrudeParams& e);
 
+    /// The polyhedral geometry of solids that have one (csg/parts.h), by field, as profiles_ for 2D:
+    /// what hull() and minkowski() take from their children.
+    /// Made when first asked for (most scenes never ask): `make` gives nothing where the object has
+    /// no parts after all (a difference of non-convex objects).
+    using PartsMaker = std::function<std::optional<Parts>()>;
+    FieldPtr withParts(FieldPtr f, PartsMaker make);
+    const Parts* partsOf(const FieldPtr& f);
+    bool hasParts(const std::vector<FieldPtr>& kids) const;
+    std::optional<Parts> combinedParts(const std::vector<FieldPtr>& kids);
+    /// Both side maps of the children carried to `f` (a union, a colour, a transform by `m`).
+    FieldPtr carried(FieldPtr f, const std::vector<FieldPtr>& kids, const glm::dmat4* m = nullptr);
+    /// The parts of a difference or an intersection `f` of the children, where they have some.
+    void carryParts(const FieldPtr& f, const std::vector<FieldPtr>& kids, bool difference);
+
     Diagnostics& d_;
     std::map<const implicit::Field*, std::pair<FieldPtr, Profile>> profiles_;
+    struct LazyParts {
+        FieldPtr field;
+        PartsMaker make;
+        bool made = false;
+        std::optional<Parts> parts;
+    };
+    std::map<const implicit::Field*, LazyParts> parts_;
     Scene& scene_;
     std::filesystem::path dir_;
     FieldPtr root_;

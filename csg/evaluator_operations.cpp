@@ -62,8 +62,27 @@ std::optional<FieldPtr> Evaluator::operation(const Call& site) {
             if (fs && fs->kind == Value::Number) e.fs = fs->n;
             if (FieldPtr f = slicedExtrusion(site, kids, e)) return f;
         }
-        return makeLinearExtrude(makeUnion(std::move(kids)), float(height), a.boolean("center", false), float(twist),
-                                 glm::vec2(float(sc.x), float(sc.y)));
+        FieldPtr f = makeLinearExtrude(makeUnion(kids), float(height), a.boolean("center", false), float(twist),
+                                       glm::vec2(float(sc.x), float(sc.y)));
+        // A straight extrusion of outlines is a polyhedron with flat walls: what hull() and
+        // minkowski() take from it.
+        if (twist == 0 && sc.x == sc.y && sc.x > 0)
+            if (std::optional<Profile> p = combinedProfile(kids, ProfileOp::Union); p && !p->outlines.empty()) {
+                ExtrudeParams e;
+                e.height = height;
+                e.scale = glm::dvec2(sc.x, sc.y);
+                e.center = a.boolean("center", false);
+                e.slices = 1;
+                withParts(f, [p = std::move(*p), e, f]() -> std::optional<Parts> {
+                    try {
+                        const mesh::TriMesh m = extrudeProfile(p, e);
+                        return meshParts({m.positions.begin(), m.positions.end()}, m.triangles, f);
+                    } catch (const std::length_error&) {
+                        return std::nullopt;
+                    }
+                });
+            }
+        return f;
     }
     if (n == "rotate_extrude") {
         Args a = args({"angle", "convexity"});
@@ -183,7 +202,8 @@ std::optional<FieldPtr> Evaluator::operation(const Call& site) {
             }
         for (int k = 0; k < 3; ++k)
             if (!(ns[k] > 0) && autos[k] && std::isfinite(smallest)) f[k] = smallest;
-        return implicit::makeTransformed(g, glm::mat4(glm::scale(glm::dmat4(1.0), f)));
+        const glm::dmat4 m = glm::scale(glm::dmat4(1.0), f);
+        return carried(implicit::makeTransformed(g, glm::mat4(m)), {g}, &m);
     }
     // --- booleans and groups
     if (n == "union" || n == "group" || n == "render" || n == "intersection" || n == "difference" ||
@@ -196,34 +216,43 @@ std::optional<FieldPtr> Evaluator::operation(const Call& site) {
         auto kids = combining(s.children, [&] { return children(s, scope, depth); });
         if (kids.empty()) return nullptr;
         const std::string base = smooth ? n.substr(7) : n;
+        if (base == "union" || base == "group" || base == "render")
+            return smooth ? makeUnion(std::move(kids), k) : carried(makeUnion(kids), kids);
         std::optional<Profile> profile;
         if (!smooth)
-            profile = combinedProfile(kids, base == "intersection" ? ProfileOp::Intersection
-                                            : base == "difference" ? ProfileOp::Difference
-                                                                   : ProfileOp::Union);
+            profile = combinedProfile(kids, base == "intersection" ? ProfileOp::Intersection : ProfileOp::Difference);
         auto profiled = [&](FieldPtr f) { return profile ? withProfile(std::move(f), std::move(*profile)) : f; };
         if (base == "intersection") {
+            // OpenSCAD: a child that makes nothing (an empty group or extrusion, a 2D object beside
+            // 3D ones) empties the intersection.
+            const auto objects = std::count_if(s.children.begin(), s.children.end(), [](const Statement& c) {
+                return !c.assignment && c.modifier != '*' && c.modifier != '%' && c.name != "echo" &&
+                       c.name != "assert";
+            });
+            if (static_cast<std::size_t>(objects) > kids.size())
+                return dropped(site, "intersection() with a child that makes nothing");
             // A child whose bounds miss the others' (a shape outside its clipping box): nothing is left.
             Box3 common = Box3::everything();
             for (const auto& c : kids) common = common.intersect(c->bounds());
             if (kids.size() > 1 && common.isEmpty())
                 d_.warn(s.line, s.col,
                         "this intersection is empty: a child lies outside the others (outside its clipping box?)");
-            return profiled(makeIntersection(std::move(kids), k));
+            FieldPtr f = profiled(makeIntersection(kids, k));
+            if (!smooth) carryParts(f, kids, false);
+            return f;
         }
-        if (base == "difference") {
-            if (kids.size() > 1) {
-                const Box3 first = kids[0]->bounds();
-                bool removes = false;
-                for (std::size_t i = 1; i < kids.size(); ++i)
-                    removes = removes || !first.intersect(kids[i]->bounds()).isEmpty();
-                if (!removes)
-                    d_.warn(s.line, s.col,
-                            "this difference removes nothing: the subtracted children lie outside the first");
-            }
-            return profiled(makeDifference(std::move(kids), k));
+        if (kids.size() > 1) {
+            const Box3 first = kids[0]->bounds();
+            bool removes = false;
+            for (std::size_t i = 1; i < kids.size(); ++i)
+                removes = removes || !first.intersect(kids[i]->bounds()).isEmpty();
+            if (!removes)
+                d_.warn(s.line, s.col,
+                        "this difference removes nothing: the subtracted children lie outside the first");
         }
-        return profiled(makeUnion(std::move(kids), k));
+        FieldPtr f = profiled(makeDifference(kids, k));
+        if (!smooth) carryParts(f, kids, true);
+        return f;
     }
     if (n == "color" || n == "material") {
         const bool mat = n == "material";
@@ -259,8 +288,7 @@ std::optional<FieldPtr> Evaluator::operation(const Call& site) {
         note(depth, n, s);
         FieldPtr g = group(s, scope, depth);
         if (!g) return nullptr;
-        const Profile* p = profileOf(g);
-        return p ? withProfile(makeMaterial(g, m), *p) : makeMaterial(g, m);
+        return carried(makeMaterial(g, m), {g});
     }
     if (n == "offset") {
         Args a = args({"r", "delta", "chamfer"});
@@ -298,8 +326,11 @@ FieldPtr Evaluator::slicedExtrusion(const Call& site, const std::vector<FieldPtr
                            "linear_extrude() makes a mesh that is not closed, so OpenSCAD cannot use it in a "
                            "boolean operation (\"The given mesh is not closed!\")");
     }
+    std::vector<glm::dvec3> points(m.positions.begin(), m.positions.end());
+    const std::vector<glm::uvec3> tris = m.triangles;
     try {
-        return makeTriangleMeshField(std::move(m.positions), std::move(m.triangles), site.s.name, nullptr, true);
+        FieldPtr f = makeTriangleMeshField(std::move(m.positions), std::move(m.triangles), site.s.name, nullptr, true);
+        return withParts(f, [points = std::move(points), tris, f] { return meshParts(points, tris, f); });
     } catch (const std::invalid_argument&) {
         return nullptr;  // nothing of non-zero area: the continuous extrusion says the same
     }

@@ -12,6 +12,7 @@
 #include "mesh/io.h"
 #include "mesh/parametric.h"
 #include "mesh/subdivide.h"
+#include "mesh/triangulate.h"
 #include "volume/grid_field.h"
 
 namespace isoforge::csg {
@@ -113,15 +114,18 @@ std::optional<FieldPtr> Evaluator::primitive3D(const Call& site) {
             return dropped(site, "cube() with a zero, negative or non-finite size");
         FieldPtr f = implicit::makeBox(glm::vec3(size));
         if (!a.boolean("center", false)) f = implicit::makeTranslated(f, glm::vec3(0.5 * size));
-        return leaf(f, "cube");
+        return withParts(leaf(f, "cube"),
+                         [size, center = a.boolean("center", false)] { return cubeParts(size, center); });
     }
     if (n == "sphere") {
         Args a = args({"r"});
         const double r = a.has("d") ? 0.5 * a.number("d") : a.number("r", 1.0);
         if (!(r > 0) || !std::isfinite(r)) return dropped(site, "sphere() with a zero, negative or non-finite radius");
         const int fn = fragments(scope, s, r);
-        return leaf(fn ? makeFacetedSphere(static_cast<float>(r), fn) : implicit::makeSphere(static_cast<float>(r)),
-                    fn ? "sphere ($fn=" + std::to_string(fn) + ")" : "sphere");
+        return withParts(
+            leaf(fn ? makeFacetedSphere(static_cast<float>(r), fn) : implicit::makeSphere(static_cast<float>(r)),
+                 fn ? "sphere ($fn=" + std::to_string(fn) + ")" : "sphere"),
+            [r, fn] { return sphereParts(r, fn ? fn : kSmoothFragments); });
     }
     if (n == "cylinder") {
         Args a = args({"h", "r1", "r2", "center"});
@@ -138,13 +142,15 @@ std::optional<FieldPtr> Evaluator::primitive3D(const Call& site) {
         if (!(r1 >= 0 && r2 >= 0) || r1 + r2 <= 0 || !std::isfinite(r1 + r2))
             return dropped(site, "cylinder() with negative, non-finite or two zero radii");
         const int fn = fragments(scope, s, std::max(r1, r2));
+        auto parts = [=] { return cylinderParts(r1, r2, h, center, fn ? fn : kSmoothFragments); };
         if (fn)
-            return leaf(makeFacetedCylinder(float(r1), float(r2), float(h), center, fn),
-                        "cylinder ($fn=" + std::to_string(fn) + ")");
+            return withParts(leaf(makeFacetedCylinder(float(r1), float(r2), float(h), center, fn),
+                                  "cylinder ($fn=" + std::to_string(fn) + ")"),
+                             parts);
         FieldPtr f =
             r1 == r2 ? implicit::makeCylinder(float(r1), float(h)) : implicit::makeCone(float(r1), float(r2), float(h));
         if (!center) f = implicit::makeTranslated(f, glm::vec3(0, 0, 0.5f * float(h)));
-        return leaf(f, "cylinder");
+        return withParts(leaf(f, "cylinder"), parts);
     }
     if (n == "polyhedron") {
         Args a = args({"points", "faces", "convexity"});
@@ -182,13 +188,20 @@ std::optional<FieldPtr> Evaluator::primitive3D(const Call& site) {
             return dropped(site,
                            "polyhedron() is not closed or its faces are not oriented consistently, so OpenSCAD "
                            "cannot use it in a boolean operation (\"The given mesh is not closed!\")");
+        std::vector<glm::dvec3> exact;
+        for (const auto& q : pts->v) exact.emplace_back(q.v[0].n, q.v[1].n, q.v[2].n);
+        std::vector<glm::uvec3> tris;
+        for (const auto& face : f)
+            for (const glm::uvec3& t : mesh::triangulateFace(p, face)) tris.push_back(t);
         FieldPtr poly;
         try {
             poly = makePolyhedron(std::move(p), f);
         } catch (const std::invalid_argument& e) {
-            return dropped(site, e.what());
+            // hull() still takes the points
+            return withParts(dropped(site, e.what()), [exact = std::move(exact)] { return pointParts(exact); });
         }
-        return leaf(poly, "polyhedron");
+        return withParts(leaf(poly, "polyhedron"),
+                         [exact = std::move(exact), tris, poly] { return meshParts(exact, tris, poly); });
     }
     return std::nullopt;
 }

@@ -210,4 +210,90 @@ Profile combineProfiles(const std::vector<const Profile*>& children, ProfileOp o
     return fromTree(result);
 }
 
+Profile hullProfile(const std::vector<const Profile*>& children) {
+    // OpenSCAD's applyHull2D: the hull of every vertex (CGAL's convex_hull_2; here Andrew's monotone
+    // chain, which gives the same polygon), one counter-clockwise outline.
+    std::vector<glm::dvec2> pts;
+    for (const Profile* c : children)
+        for (const Outline2& o : c->outlines) pts.insert(pts.end(), o.points.begin(), o.points.end());
+    std::sort(pts.begin(), pts.end(),
+              [](const glm::dvec2& a, const glm::dvec2& b) { return a.x < b.x || (a.x == b.x && a.y < b.y); });
+    pts.erase(std::unique(pts.begin(), pts.end()), pts.end());
+    Profile out;
+    if (pts.size() < 3) return out;
+    auto cross = [](const glm::dvec2& o, const glm::dvec2& a, const glm::dvec2& b) {
+        return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x);
+    };
+    std::vector<glm::dvec2> h(2 * pts.size());
+    std::size_t k = 0;
+    for (std::size_t i = 0; i < pts.size(); ++i) {  // lower chain
+        while (k >= 2 && cross(h[k - 2], h[k - 1], pts[i]) <= 0) --k;
+        h[k++] = pts[i];
+    }
+    for (std::size_t i = pts.size() - 1, lower = k + 1; i-- > 0;) {  // upper chain
+        while (k >= lower && cross(h[k - 2], h[k - 1], pts[i]) <= 0) --k;
+        h[k++] = pts[i];
+    }
+    h.resize(k - 1);
+    if (h.size() < 3) return out;
+    out.outlines.push_back({std::move(h), true});
+    return sanitize(out);
+}
+
+Profile minkowskiProfile(const std::vector<const Profile*>& children) {
+    // OpenSCAD's ClipperUtils::applyMinkowski: for each pair of outlines the quads that sweep each
+    // edge of one along each edge of the other, then each outline moved by a point of each positive
+    // outline of the other (the insides), united under the non-zero rule, child after child.
+    if (children.empty()) return {};
+    if (children.size() == 1) return *children[0];
+    auto sanitized = [](const Profile& p) {
+        ClipperLib::Paths paths = toPaths(p);
+        if (!p.sanitized) ClipperLib::PolyTreeToPaths(sanitizeTree(paths), paths);
+        return paths;
+    };
+    auto insides = [](const ClipperLib::Paths& a, const ClipperLib::Paths& b, ClipperLib::Paths& target) {
+        for (const ClipperLib::Path& bp : b) {
+            if (bp.empty() || !ClipperLib::Orientation(bp)) continue;
+            for (const ClipperLib::Path& ap : a) {
+                target.push_back(ap);
+                for (ClipperLib::IntPoint& q : target.back()) q.X += bp[0].X, q.Y += bp[0].Y;
+            }
+        }
+    };
+    ClipperLib::Clipper c;
+    ClipperLib::Paths lhs = sanitized(*children[0]);
+    try {
+        for (std::size_t i = 1; i < children.size(); ++i) {
+            const ClipperLib::Paths rhs = sanitized(*children[i]);
+            ClipperLib::Paths terms;
+            for (const ClipperLib::Path& path : lhs)
+                for (const ClipperLib::Path& poly : rhs) {
+                    if (path.empty() || poly.empty()) continue;
+                    for (std::size_t a = 0; a < path.size(); ++a)
+                        for (std::size_t b = 0; b < poly.size(); ++b) {
+                            const ClipperLib::IntPoint &p0 = path[a], &p1 = path[(a + 1) % path.size()];
+                            const ClipperLib::IntPoint &q0 = poly[b], &q1 = poly[(b + 1) % poly.size()];
+                            ClipperLib::Path quad{{p0.X + q0.X, p0.Y + q0.Y},
+                                                  {p1.X + q0.X, p1.Y + q0.Y},
+                                                  {p1.X + q1.X, p1.Y + q1.Y},
+                                                  {p0.X + q1.X, p0.Y + q1.Y}};
+                            if (!ClipperLib::Orientation(quad)) std::reverse(quad.begin(), quad.end());
+                            terms.push_back(std::move(quad));
+                        }
+                }
+            insides(lhs, rhs, terms);
+            insides(rhs, lhs, terms);
+            c.Clear();
+            c.AddPaths(terms, ClipperLib::ptSubject, true);
+            if (i + 1 != children.size())
+                c.Execute(ClipperLib::ctUnion, lhs, ClipperLib::pftNonZero, ClipperLib::pftNonZero);
+        }
+        ClipperLib::PolyTree tree;
+        c.Execute(ClipperLib::ctUnion, tree, ClipperLib::pftNonZero, ClipperLib::pftNonZero);
+        return fromTree(tree);
+    } catch (...) {
+        return {};  // Clipper's range check: nothing, as OpenSCAD gets
+    }
+}
+
 }  // namespace isoforge::csg

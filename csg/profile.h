@@ -45,6 +45,11 @@ enum class ProfileOp { Union, Intersection, Difference };
 /// applyToChildren2D: one child is returned as it is.
 Profile combineProfiles(const std::vector<const Profile*>& children, ProfileOp op);
 
+/// hull() of 2D children: the convex hull of all their vertices (OpenSCAD's applyHull2D).
+Profile hullProfile(const std::vector<const Profile*>& children);
+/// minkowski() of 2D children, as OpenSCAD's ClipperUtils::applyMinkowski builds it with Clipper.
+Profile minkowskiProfile(const std::vector<const Profile*>& children);
+
 /// OpenSCAD 2021.01's linear_extrude of a sanitized profile with twist and scale: `slices` bands of
 /// triangulated walls (each quad split along its shorter diagonal, as OpenSCAD's add_slice), capped
 /// below and above (no top cap when a scale is 0). `slices` <= 0: OpenSCAD's own count from $fn, $fa

@@ -143,9 +143,9 @@ TEST(Scene, ErrorsNameFileLineColumnWithACaretAndSeveralAtOnce) {
     std::string e = errorOf("cube(1);\nsphere(r = );\n");
     EXPECT_NE(e.find("s.isf:2:12: expected a value"), std::string::npos) << e;
     EXPECT_NE(e.find("\n  sphere(r = );\n             ^"), std::string::npos) << e;
-    e = errorOf("minkowski() { cube(1); sphere(1); }\nhull() { cube(1); }\n");
-    EXPECT_NE(e.find("s.isf:1:1: 'minkowski' is not supported"), std::string::npos) << e;
-    EXPECT_NE(e.find("s.isf:2:1: 'hull' is not supported"), std::string::npos) << e;
+    e = errorOf("text(\"a\");\nprojection() { cube(1); }\n");
+    EXPECT_NE(e.find("s.isf:1:1: 'text' is not supported"), std::string::npos) << e;
+    EXPECT_NE(e.find("s.isf:2:1: 'projection' is not supported"), std::string::npos) << e;
     EXPECT_NE(e.find("2 errors"), std::string::npos) << e;
     EXPECT_NE(errorOf("frobnicate(1);").find("unknown module 'frobnicate'"), std::string::npos);
     EXPECT_NE(errorOf("cube(size = q);").find("unknown variable 'q'"), std::string::npos);
