@@ -32,7 +32,9 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 SHARE = "/usr/share/openscad"
 # Constructs isoforge refuses (docs/openscad.md): a model using one is listed as unsupported.
-UNSUPPORTED = ["import", "surface", "text", "projection", "roof", "offset"]
+UNSUPPORTED = ["text", "projection", "roof", "offset"]
+# import() and surface() files isoforge reads (docs/openscad.md); other kinds make a model unsupported.
+FILE_KINDS = {"import": (".stl", ".off", ".obj", ".ply"), "surface": (".dat",)}
 
 
 def corpus():
@@ -144,6 +146,18 @@ def check_model(scad, args):
         return row
     csg = open(base + ".csg").read()
     used = [u for u in UNSUPPORTED if re.search(r"\b" + u + r"\s*\(", csg)]
+    # Files named by import() and surface() are relative to the model: the export, kept in the cache,
+    # gets absolute paths. Missing ones stay (OpenSCAD and isoforge both skip them with a warning).
+    model_dir = os.path.dirname(os.path.abspath(scad))
+    for call, name in re.findall(r'\b(import|surface)\(file = "([^"]*)"', csg):
+        ext = os.path.splitext(name)[1].lower()
+        if name and os.path.exists(os.path.join(model_dir, name)) and ext not in FILE_KINDS[call]:
+            used.append("%s %s" % (call, ext[1:].upper() or "file"))
+    csg = re.sub(r'\b(import|surface)\(file = "([^"/][^"]*)"',
+                 lambda m: '%s(file = "%s"' % (m.group(1), os.path.join(model_dir, m.group(2))), csg)
+    if csg != open(base + ".csg").read():
+        with open(base + ".abs.csg", "w") as f:
+            f.write(csg)
     if re.search(r"_extrude\(file = ", csg):
         used.append("DXF import")
     if used:
@@ -164,11 +178,12 @@ def check_model(scad, args):
     lo, hi = ref.reshape(-1, 3).min(0), ref.reshape(-1, 3).max(0)
     voxel = float(max(hi - lo)) / 256.0
     out = base + ".iso.ply"
-    rc, log, t = run([args.isoforge, "mesh", base + ".csg", "--voxel", "%.9g" % voxel, "-o", out, "--quiet"], 600)
+    source = base + ".abs.csg" if os.path.exists(base + ".abs.csg") else base + ".csg"
+    rc, log, t = run([args.isoforge, "mesh", source, "--voxel", "%.9g" % voxel, "-o", out, "--quiet"], 600)
     row["isoforge_s"] = t
     if rc != 0:
         msg = log.strip().splitlines()[0] if log.strip() else ""
-        row["status"] = "isoforge fails: " + msg.replace(base + ".csg", "X.csg")[:200]
+        row["status"] = "isoforge fails: " + msg.replace(source, "X.csg")[:200]
         return row
     mine = read_ply(out)
     os.remove(out)

@@ -89,6 +89,7 @@ private:
     // Each returns nothing when the call is not one of its modules (evaluator_shapes.cpp,
     // evaluator_operations.cpp, evaluator.cpp).
     std::optional<FieldPtr> primitive3D(const Call& site);
+    FieldPtr fileShape(const Call& site);
     std::optional<FieldPtr> shape2D(const Call& site);
     std::optional<FieldPtr> extensionShape(const Call& site);
     std::optional<FieldPtr> operation(const Call& site);

@@ -57,7 +57,12 @@ std::optional<FieldPtr> Evaluator::convexOperation(const Call& site) {
         return withProfile(f, std::move(p));
     }
     std::vector<const Parts*> ps;
+    static const Parts none;
     for (const FieldPtr& k : kids) {
+        if (k->bounds().isEmpty()) {  // an object that makes nothing (an extrusion of a missing file)
+            ps.push_back(&none);
+            continue;
+        }
         const Parts* p = partsOf(k);
         if (!p)
             throw EvalError{

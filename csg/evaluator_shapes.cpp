@@ -1,10 +1,13 @@
+#include <algorithm>
 #include <array>
+#include <cctype>
 #include <cmath>
 
 #include "core/error.h"
 #include "csg/evaluator.h"
 #include "csg/nodes.h"
 #include "csg/shapes.h"
+#include "csg/surface.h"
 #include "implicit/blobby.h"
 #include "implicit/primitives.h"
 #include "implicit/quadric.h"
@@ -203,7 +206,46 @@ std::optional<FieldPtr> Evaluator::primitive3D(const Call& site) {
         return withParts(leaf(poly, "polyhedron"),
                          [exact = std::move(exact), tris, poly] { return meshParts(exact, tris, poly); });
     }
+    if (n == "import" || n == "surface") return fileShape(site);
     return std::nullopt;
+}
+
+/// OpenSCAD's import() of a 3D mesh file and surface() of a .dat height map. A file that cannot be
+/// opened is skipped with a warning, as OpenSCAD skips it.
+FieldPtr Evaluator::fileShape(const Call& site) {
+    const Statement& s = site.s;
+    const bool import = s.name == "import";
+    Args a = import ? Args(s, site.scope, {"file", "layer", "convexity", "origin", "scale"})
+                    : Args(s, site.scope, {"file", "center", "invert", "convexity"});
+    const std::string name = a.string("file", std::string());
+    std::string ext = std::filesystem::path(name).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    const std::string file = name.empty() ? name : path(name);
+    std::error_code ec;
+    if (name.empty() || !std::filesystem::is_regular_file(file, ec))
+        return dropped(site, s.name + "() cannot open '" + name + "'");
+    if (import && ext != ".stl" && ext != ".off" && ext != ".obj" && ext != ".ply")
+        throw a.error("file", "import() reads 3D meshes (STL, OFF, OBJ, PLY); '" + ext +
+                                  "' files (DXF and SVG drawings, AMF, 3MF) are not supported");
+    if (!import && ext != ".dat")
+        throw a.error("file", "surface() reads .dat height maps; PNG images are not supported");
+    mesh::TriMesh m;
+    if (import) {
+        m = mesh::readMesh(file);
+        const double scale = a.number("scale", 1.0);
+        if (!(scale > 0) || !std::isfinite(scale)) throw a.error("scale", "import() scale must be positive");
+        for (glm::vec3& p : m.positions) p *= float(scale);
+    } else {
+        std::vector<std::string> warnings;
+        m = surfaceMesh(readHeightMap(file, warnings), a.boolean("center", false));
+        for (const std::string& w : warnings) d_.warn(s.line, s.col, w);
+        if (a.boolean("invert", false)) d_.warn(s.line, s.col, "surface(invert = true) applies to PNG images only");
+        if (m.triangles.empty()) return dropped(site, "surface() of a height map of fewer than 2 rows or columns");
+    }
+    std::vector<glm::dvec3> points(m.positions.begin(), m.positions.end());
+    std::vector<glm::uvec3> tris = m.triangles;
+    FieldPtr f = meshLeafOf(site, std::move(m), s.name + "(\"" + name + "\")", !import);
+    return withParts(f, [points = std::move(points), tris = std::move(tris), f] { return meshParts(points, tris, f); });
 }
 
 std::optional<FieldPtr> Evaluator::shape2D(const Call& site) {

@@ -16,6 +16,7 @@
 #include <glm/geometric.hpp>
 
 #include "csg/shapes.h"
+#include "mesh/self_intersections.h"
 #include "mesh/triangulate.h"
 
 namespace isoforge::csg {
@@ -89,7 +90,10 @@ public:
         closed_ = orient();
         if (!closed_) capBoundary();
         buildBvh();
-        pseudonormals_ = closed_ && trusted;
+        // A closed mesh signs by pseudonormals when it cannot fold through itself: generated, or
+        // checked free of self-intersections (exact predicates), which costs far less than the
+        // winding number at every sample near the surface.
+        pseudonormals_ = closed_ && (trusted || selfIntersectionFree());
         if (pseudonormals_)
             buildPseudonormals();
         else
@@ -97,6 +101,12 @@ public:
     }
 
     bool closed() const { return closed_; }
+    bool selfIntersectionFree() const {
+        mesh::TriMesh m;
+        m.positions = p_;
+        m.triangles = t_;
+        return mesh::selfIntersections(m, 1).pairs == 0;
+    }
     float value(const glm::vec3& q) const override {
         const auto [c, tri] = closest(q);
         const float d = std::sqrt(c.d2);
@@ -107,14 +117,26 @@ public:
     /// (|p - q| < d(q)) takes that point's sign, since the winding number of a closed chain of
     /// triangles (open meshes are capped first) is constant off the surface. Only points near the
     /// surface pay for the winding number.
+    /// The closest triangle of each point comes from the few triangles that can be closest to any
+    /// point of the batch's box (one traversal of the hierarchy per batch, not per point).
     void values(std::span<const glm::vec3> p, std::span<float> out) const override {
+        if (p.empty()) return;
+        glm::vec3 lo(kInf), hi(-kInf);
+        for (const glm::vec3& q : p) lo = glm::min(lo, q), hi = glm::max(hi, q);
+        const Candidates near = candidates(lo, hi);
+        const bool few = near.tri.size() <= kMaxCandidates;
+        auto closestOf = [&](const glm::vec3& q) { return few ? closestAmong(q, near) : closest(q); };
         if (pseudonormals_) {
-            for (std::size_t i = 0; i < p.size(); ++i) out[i] = value(p[i]);
+            for (std::size_t i = 0; i < p.size(); ++i) {
+                const auto [c, tri] = closestOf(p[i]);
+                const float d = std::sqrt(c.d2);
+                out[i] = inside(p[i], c, tri) ? -d : d;
+            }
             return;
         }
         std::vector<bool> in(p.size());
         for (std::size_t i = 0; i < p.size(); ++i) {
-            const auto [c, tri] = closest(p[i]);
+            const auto [c, tri] = closestOf(p[i]);
             const float d = std::sqrt(c.d2);
             // Earlier points of the batch that are likely neighbours: the previous one along each axis
             // of an 8^3 block, and the last one.
@@ -152,6 +174,7 @@ public:
     }
 
 private:
+    static constexpr std::size_t kMaxCandidates = 128;
     struct Node {
         glm::vec3 lo, hi;
         std::uint32_t first,
@@ -236,6 +259,65 @@ private:
             } else {
                 stack[top++] = n.first;
                 stack[top++] = n.first + 1;
+            }
+        }
+        return {best, bestTri};
+    }
+
+    /// Triangles that can hold the closest point of some point of the box [lo, hi]: those within
+    /// d(centre) + half the diagonal of it, which bounds every point's distance, nearest to the centre
+    /// first, with their boxes; at most kMaxCandidates + 1 are collected (more: the caller searches
+    /// point by point).
+    struct Candidates {
+        std::vector<std::uint32_t> tri;
+        std::vector<glm::vec3> lo, hi;
+    };
+    Candidates candidates(const glm::vec3& lo, const glm::vec3& hi) const {
+        const glm::vec3 centre = 0.5f * (lo + hi);
+        const float reach = std::sqrt(closest(centre).first.d2) + 0.5f * glm::length(hi - lo);
+        const float reach2 = reach * reach * (1.f + 1e-5f) + 1e-30f;
+        std::vector<std::pair<float, std::uint32_t>> found;
+        std::uint32_t stack[64];
+        int top = 0;
+        stack[top++] = 0;
+        while (top > 0 && found.size() <= kMaxCandidates) {
+            const Node& n = nodes_[stack[--top]];
+            const glm::vec3 gap = glm::max(glm::max(n.lo - hi, lo - n.hi), glm::vec3(0.f));
+            if (glm::dot(gap, gap) > reach2) continue;
+            if (n.count > 0) {
+                for (std::uint32_t i = n.first; i < n.first + n.count; ++i) {
+                    const glm::uvec3& t = t_[order_[i]];
+                    const glm::vec3 tlo = glm::min(glm::min(p_[t.x], p_[t.y]), p_[t.z]);
+                    const glm::vec3 thi = glm::max(glm::max(p_[t.x], p_[t.y]), p_[t.z]);
+                    found.emplace_back(boxDistance2(centre, tlo, thi), order_[i]);
+                }
+                continue;
+            }
+            stack[top++] = n.first;
+            stack[top++] = n.first + 1;
+        }
+        std::sort(found.begin(), found.end());
+        Candidates c;
+        for (const auto& [d, i] : found) {
+            const glm::uvec3& t = t_[i];
+            c.tri.push_back(i);
+            c.lo.push_back(glm::min(glm::min(p_[t.x], p_[t.y]), p_[t.z]));
+            c.hi.push_back(glm::max(glm::max(p_[t.x], p_[t.y]), p_[t.z]));
+        }
+        return c;
+    }
+    /// closest() over the candidates: the nearest, the lowest index among equals (a triangle whose
+    /// box is farther than the best so far cannot be nearer).
+    std::pair<Closest, std::uint32_t> closestAmong(const glm::vec3& q, const Candidates& c) const {
+        Closest best{kInf, kFace, glm::vec3(0.f)};
+        std::uint32_t bestTri = 0;
+        for (std::size_t k = 0; k < c.tri.size(); ++k) {
+            if (boxDistance2(q, c.lo[k], c.hi[k]) > best.d2) continue;
+            const glm::uvec3& t = t_[c.tri[k]];
+            const Closest r = closestOnTriangle(q, p_[t.x], p_[t.y], p_[t.z]);
+            if (r.d2 < best.d2 || (r.d2 == best.d2 && c.tri[k] < bestTri)) {
+                best = r;
+                bestTri = c.tri[k];
             }
         }
         return {best, bestTri};

@@ -2,6 +2,7 @@
 // vertices for faceted primitives), with regularized differences, in 2D by Clipper; the convex
 // polytope field they make.
 #include <cmath>
+#include <fstream>
 #include <random>
 #include <string>
 
@@ -10,7 +11,10 @@
 #include "csg/parts.h"
 #include "csg/polytope.h"
 #include "csg/scene.h"
+#include "csg/surface.h"
+#include "mesh/check.h"
 #include "mesh/convex_hull.h"
+#include "mesh/io.h"
 
 using namespace isoforge;
 
@@ -177,5 +181,68 @@ TEST(OpenScadHull, AbsurdSumsAreRefusedBeforeTheWork) {
         } catch (const std::exception& e) {
             EXPECT_NE(std::string(e.what()).find("more than"), std::string::npos) << e.what();
         }
+    }
+}
+
+TEST(OpenScadSurface, HeightMapsAreClosedSolidsAsOpenScadBuildsThem) {
+    const std::string dir = testing::TempDir();
+    const std::string dat = dir + "/map.dat";
+    {
+        std::ofstream f(dat);
+        f << "# a comment\n0 1 2\n\n3 4\n5 6 7 8\n";  // a short row: the missing value is 0
+    }
+    std::vector<std::string> warnings;
+    const csg::HeightMap map = csg::readHeightMap(dat, warnings);
+    EXPECT_TRUE(warnings.empty());
+    ASSERT_EQ(map.rows.size(), 3u);
+    EXPECT_EQ(map.columns, 4u);
+    const mesh::TriMesh m = csg::surfaceMesh(map, false);
+    const mesh::MeshReport r = mesh::check(m);
+    EXPECT_TRUE(r.isWatertight() && r.isOriented() && r.isVertexManifold()) << r.boundaryEdges << " open edges";
+    EXPECT_EQ(r.negativeComponents, 0u);
+    // 6 cells of 4 triangles each to their mean height, over a floor at min(0, lowest - 1) = -1.
+    EXPECT_EQ(m.triangles.size(), 24u + 2 * 10 + 2 * 6);  // top, walls of the 10 rim edges, floor
+    EXPECT_EQ(r.zeroAreaTriangles, 0u);
+    const mesh::Bounds b = mesh::bounds(m);
+    EXPECT_EQ(b.min, glm::vec3(0, 0, -1));
+    EXPECT_EQ(b.max, glm::vec3(3, 2, 8));
+    // A value that is not a number ends the map with a warning naming the file and the line.
+    {
+        std::ofstream f(dat);
+        f << "1 2\n3 x 4\n5 6\n";
+    }
+    warnings.clear();
+    EXPECT_EQ(csg::readHeightMap(dat, warnings).rows.size(), 2u);
+    ASSERT_EQ(warnings.size(), 1u);
+    EXPECT_NE(warnings[0].find("map.dat:2: 'x' is not a number"), std::string::npos) << warnings[0];
+}
+
+TEST(OpenScadImport, MeshFilesAsSolidsMissingOnesSkippedDrawingsRefused) {
+    const std::string dir = testing::TempDir();
+    mesh::TriMesh cube;  // a unit cube, written as STL as OpenSCAD models import it
+    for (int i = 0; i < 8; ++i) cube.positions.emplace_back(i & 1, (i >> 1) & 1, (i >> 2) & 1);
+    cube.triangles = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
+                      {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
+    mesh::writeMesh(dir + "/cube.stl", cube);
+    // parseScene reads paths from the working directory (readScene: from the scene's own).
+    const auto s = csg::parseScene("import(\"" + dir + "/cube.stl\", scale = 2);\nimport(\"missing.stl\");", "s.isf");
+    EXPECT_NEAR(s.root->value(glm::vec3(1.f)), -1.f, 1e-5f);  // scaled by 2: centre 1, 1 from each face
+    EXPECT_NEAR(s.root->bounds().max.x, 2.f, 1e-5f);
+    ASSERT_EQ(s.warnings.size(), 1u) << warnings(s);
+    EXPECT_EQ(s.warnings[0].loc.line, 2);
+    EXPECT_NE(s.warnings[0].message.find("cannot open 'missing.stl'"), std::string::npos);
+    // An imported mesh has a geometry: hull() and minkowski() take it.
+    const auto h =
+        csg::parseScene("hull() { import(\"" + dir + "/cube.stl\"); translate([3, 0, 0]) cube(1); }", "h.isf");
+    EXPECT_LT(h.root->value(glm::vec3(2.f, 0.5f, 0.5f)), 0.f);
+    {
+        std::ofstream f(dir + "/drawing.dxf");
+        f << "0\nEOF\n";
+    }
+    try {
+        csg::parseScene("import(\"" + dir + "/drawing.dxf\");", "d.isf");
+        FAIL() << "accepted a DXF";
+    } catch (const std::exception& e) {
+        EXPECT_NE(std::string(e.what()).find("not supported"), std::string::npos) << e.what();
     }
 }
