@@ -246,8 +246,7 @@ FieldPtr Evaluator::call(const Statement& s, const Scope& outer, int depth) {
     if (auto f = extensionShape(c)) return *f;
     if (auto f = sceneStatement(c)) return *f;
     if (n == "echo" || n == "assert") return nullptr;
-    static const char* unsupported[] = {"text", "projection",       "roof", "children", "let",
-                                        "for",  "intersection_for", "if"};
+    static const char* unsupported[] = {"projection", "roof", "children", "let", "for", "intersection_for", "if"};
     for (const char* u : unsupported)
         if (n == u)
             throw EvalError{

@@ -41,6 +41,8 @@ public:
         return combining(list, [&] { return run(list, scope, 0); });
     }
     FieldPtr rootOverride() const { return root_; }
+    /// The 2D field of a sanitized profile (outlines and holes under the even-odd rule).
+    static FieldPtr profileField(const Profile& p);
     /// Whether a field is a 2D object (bounded in x and y, the same along z).
     static bool planar(const FieldPtr& f);
     std::string outline;

@@ -12,9 +12,7 @@
 
 namespace isoforge::csg {
 
-namespace {
-/// The 2D field of a sanitized profile (outlines and holes under the even-odd rule).
-FieldPtr profileField(const Profile& p) {
+FieldPtr Evaluator::profileField(const Profile& p) {
     std::vector<glm::vec2> points;
     std::vector<std::vector<int>> paths;
     for (const Outline2& o : p.outlines) {
@@ -26,7 +24,6 @@ FieldPtr profileField(const Profile& p) {
     }
     return makePolygon2D(std::move(points), std::move(paths));
 }
-}  // namespace
 
 std::optional<FieldPtr> Evaluator::convexOperation(const Call& site) {
     const Statement& s = site.s;

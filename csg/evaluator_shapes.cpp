@@ -8,6 +8,7 @@
 #include "csg/nodes.h"
 #include "csg/shapes.h"
 #include "csg/surface.h"
+#include "csg/text.h"
 #include "implicit/blobby.h"
 #include "implicit/primitives.h"
 #include "implicit/quadric.h"
@@ -273,6 +274,36 @@ std::optional<FieldPtr> Evaluator::shape2D(const Call& site) {
         return leaf(withProfile(makeRectangle2D(lo, lo + sz),
                                 squareProfile(glm::dvec2(size.x, size.y), a.boolean("center", false))),
                     "square");
+    }
+    if (n == "text") {
+        Args a = args({"text", "size", "font", "halign", "valign", "spacing", "direction", "language", "script"});
+        TextParams t;
+        t.text = a.string("text", std::string());
+        t.size = a.number("size", 10.0);
+        t.font = a.string("font", std::string());
+        t.halign = a.string("halign", std::string("left"));
+        t.valign = a.string("valign", std::string("baseline"));
+        t.spacing = a.number("spacing", 1.0);
+        t.direction = a.string("direction", std::string());
+        t.language = a.string("language", std::string("en"));
+        t.script = a.string("script", std::string());
+        if (!std::isfinite(t.size) || !std::isfinite(t.spacing) || std::abs(t.size) > 1e6)
+            throw a.error("size", "text() size and spacing must be finite numbers");
+        if (t.text.size() > 100000) throw a.error("text", "text() of more than 100,000 bytes");
+        // OpenSCAD: max(floor(fragments(size) / 8) + 1, 2) points per curve; its default $fa = 12 and
+        // $fs = 2 where our own scenes set neither.
+        int frags = fragments(scope, s, t.size);
+        if (!frags) frags = int(std::ceil(std::max(std::min(360.0 / 12, t.size * 2 * M_PI / 2), 5.0)));
+        t.segments = std::max(frags / 8 + 1, 2);
+        Profile p;
+        try {
+            p = textProfile(t);
+        } catch (const std::runtime_error& e) {
+            throw EvalError{s.line, s.col, e.what()};
+        }
+        if (p.outlines.empty()) return dropped(site, "text() with nothing to draw");
+        FieldPtr f = profileField(p);
+        return leaf(withProfile(f, std::move(p)), "text");
     }
     if (n == "polygon") {
         Args a = args({"points", "paths", "convexity", "subdivide", "levels"});

@@ -93,11 +93,15 @@ public:
         // A closed mesh signs by pseudonormals when it cannot fold through itself: generated, or
         // checked free of self-intersections (exact predicates), which costs far less than the
         // winding number at every sample near the surface.
+        // A user's mesh signs by its face normal only where the closest point is inside a face;
+        // nearer an edge or a vertex (the tips of thin spikes, where float rounding picks the
+        // feature) by the winding number, as before.
         pseudonormals_ = closed_ && (trusted || selfIntersectionFree());
-        if (pseudonormals_)
-            buildPseudonormals();
-        else
-            buildDipoles();
+        facesOnly_ = pseudonormals_ && !trusted;
+        const float size = glm::length(box_.size());
+        onSurface2_ = (1e-5f * size) * (1e-5f * size);
+        if (pseudonormals_) buildPseudonormals();
+        if (!pseudonormals_ || facesOnly_) buildDipoles();
     }
 
     bool closed() const { return closed_; }
@@ -126,7 +130,7 @@ public:
         const Candidates near = candidates(lo, hi);
         const bool few = near.tri.size() <= kMaxCandidates;
         auto closestOf = [&](const glm::vec3& q) { return few ? closestAmong(q, near) : closest(q); };
-        if (pseudonormals_) {
+        if (pseudonormals_ && !facesOnly_) {
             for (std::size_t i = 0; i < p.size(); ++i) {
                 const auto [c, tri] = closestOf(p[i]);
                 const float d = std::sqrt(c.d2);
@@ -324,6 +328,9 @@ private:
     }
 
     bool inside(const glm::vec3& q, const Closest& c, std::uint32_t tri) const {
+        // On the surface (within float rounding: grid samples on a face lying in a grid plane): as the winding number
+        // signs them, so that a part thinner than a voxel keeps the samples on its faces.
+        if (facesOnly_ && (c.feature != kFace || c.d2 <= onSurface2_)) return windingNumberInside(q);
         if (pseudonormals_) {
             const glm::uvec3& t = t_[tri];
             glm::vec3 n;
@@ -594,6 +601,9 @@ private:
     };
     std::vector<Dipole> dipole_;
     bool pseudonormals_ = false;
+    bool facesOnly_ = false;
+    float onSurface2_ = 0.f;  ///< squared distances this small count as on the surface  ///< pseudonormals of faces
+                              ///< only (a user's mesh): elsewhere the winding number
     std::unordered_map<std::uint64_t, glm::vec3> edgeNormal_;
 };
 

@@ -69,6 +69,13 @@ ClipperLib::PolyTree sanitizeTree(const ClipperLib::Paths& paths) {
     return tree;
 }
 
+/// The paths of a profile for a boolean: as they are if sanitized, else sanitized first.
+ClipperLib::Paths clipperPaths(const Profile& p) {
+    ClipperLib::Paths paths = toPaths(p);
+    if (!p.sanitized) ClipperLib::PolyTreeToPaths(sanitizeTree(paths), paths);
+    return paths;
+}
+
 Profile sanitize(const Profile& p) {
     return fromTree(sanitizeTree(toPaths(p)));
 }
@@ -178,11 +185,7 @@ Profile combineProfiles(const std::vector<const Profile*>& children, ProfileOp o
     if (children.empty()) return {};
     if (children.size() == 1) return *children[0];
     std::vector<ClipperLib::Paths> sets;
-    for (const Profile* c : children) {
-        ClipperLib::Paths paths = toPaths(*c);
-        if (!c->sanitized) ClipperLib::PolyTreeToPaths(sanitizeTree(paths), paths);
-        sets.push_back(std::move(paths));
-    }
+    for (const Profile* c : children) sets.push_back(clipperPaths(*c));
     ClipperLib::Clipper clipper;
     ClipperLib::PolyTree result;
     try {
@@ -206,6 +209,19 @@ Profile combineProfiles(const std::vector<const Profile*>& children, ProfileOp o
                         ClipperLib::pftNonZero, ClipperLib::pftNonZero);
     } catch (...) {
         return {};  // Clipper's range check: nothing, as OpenSCAD gets
+    }
+    return fromTree(result);
+}
+
+Profile uniteProfiles(const std::vector<const Profile*>& children) {
+    ClipperLib::Clipper clipper;
+    ClipperLib::PolyTree result;
+    try {
+        for (std::size_t i = 0; i < children.size(); ++i)
+            clipper.AddPaths(clipperPaths(*children[i]), i == 0 ? ClipperLib::ptSubject : ClipperLib::ptClip, true);
+        clipper.Execute(ClipperLib::ctUnion, result, ClipperLib::pftNonZero, ClipperLib::pftNonZero);
+    } catch (...) {
+        return {};  // Clipper's range check
     }
     return fromTree(result);
 }
@@ -246,11 +262,6 @@ Profile minkowskiProfile(const std::vector<const Profile*>& children) {
     // outline of the other (the insides), united under the non-zero rule, child after child.
     if (children.empty()) return {};
     if (children.size() == 1) return *children[0];
-    auto sanitized = [](const Profile& p) {
-        ClipperLib::Paths paths = toPaths(p);
-        if (!p.sanitized) ClipperLib::PolyTreeToPaths(sanitizeTree(paths), paths);
-        return paths;
-    };
     auto insides = [](const ClipperLib::Paths& a, const ClipperLib::Paths& b, ClipperLib::Paths& target) {
         for (const ClipperLib::Path& bp : b) {
             if (bp.empty() || !ClipperLib::Orientation(bp)) continue;
@@ -261,10 +272,10 @@ Profile minkowskiProfile(const std::vector<const Profile*>& children) {
         }
     };
     ClipperLib::Clipper c;
-    ClipperLib::Paths lhs = sanitized(*children[0]);
+    ClipperLib::Paths lhs = clipperPaths(*children[0]);
     try {
         for (std::size_t i = 1; i < children.size(); ++i) {
-            const ClipperLib::Paths rhs = sanitized(*children[i]);
+            const ClipperLib::Paths rhs = clipperPaths(*children[i]);
             ClipperLib::Paths terms;
             for (const ClipperLib::Path& path : lhs)
                 for (const ClipperLib::Path& poly : rhs) {

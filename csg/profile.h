@@ -45,6 +45,8 @@ enum class ProfileOp { Union, Intersection, Difference };
 /// applyToChildren2D: one child is returned as it is.
 Profile combineProfiles(const std::vector<const Profile*>& children, ProfileOp op);
 
+/// The union of the profiles by Clipper (non-zero rule), even of one: OpenSCAD's ClipperUtils::apply.
+Profile uniteProfiles(const std::vector<const Profile*>& children);
 /// hull() of 2D children: the convex hull of all their vertices (OpenSCAD's applyHull2D).
 Profile hullProfile(const std::vector<const Profile*>& children);
 /// minkowski() of 2D children, as OpenSCAD's ClipperUtils::applyMinkowski builds it with Clipper.

@@ -11,8 +11,10 @@ packages=(
   libcli11-dev libmeshoptimizer-dev libtinygltf-dev
   # Clipper 6.4, as OpenSCAD 2021.01 uses it for 2D booleans (twisted extrusions of OpenSCAD models)
   libpolyclipping-dev
-  # exact predicates for the self-intersection check (mesh/self_intersections.cpp)
+  # exact predicates for the self-intersection check and convex hulls (mesh/), OpenSCAD's hull and minkowski
   libcgal-dev
+  # text(): the font libraries OpenSCAD renders text with (csg/text.cpp), and a font for its default
+  libfreetype-dev libharfbuzz-dev libfontconfig-dev fonts-dejavu-core
   # medical volumes: NIfTI (niftilib), DICOM (GDCM), NRRD (teem)
   libnifti2-dev libgdcm-dev libteem-dev
   # OpenImageIO's CMake export names its command-line tools, so they must exist
