@@ -32,7 +32,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 SHARE = "/usr/share/openscad"
 # Constructs isoforge refuses (docs/openscad.md): a model using one is listed as unsupported.
-UNSUPPORTED = ["projection", "roof", "offset"]
+UNSUPPORTED = ["projection", "roof"]
 # import() and surface() files isoforge reads (docs/openscad.md); other kinds make a model unsupported.
 FILE_KINDS = {"import": (".stl", ".off", ".obj", ".ply"), "surface": (".dat",)}
 

@@ -293,8 +293,25 @@ std::optional<FieldPtr> Evaluator::operation(const Call& site) {
     if (n == "offset") {
         Args a = args({"r", "delta", "chamfer"});
         note(depth, "offset", s);
+        const bool round = a.has("r") || !a.has("delta");  // OpenSCAD: r wins; no argument is r = 1
+        const double amount = round ? a.number("r", 1.0) : a.number("delta");
+        if (!std::isfinite(amount)) throw a.error(round ? "r" : "delta", "offset() needs a finite distance");
         FieldPtr g = group(s, scope, depth);
-        return g ? implicit::makeOffset(g, float(a.has("delta") ? a.number("delta") : a.number("r", 0.0))) : nullptr;
+        if (!g) return nullptr;
+        // A 2D object with OpenSCAD's outlines: OpenSCAD's own offset by Clipper. Otherwise (a 3D
+        // object, our extension; a 2D one without outlines) the offset of the field.
+        if (const Profile* p = profileOf(g); p && planar(g)) {
+            int frags = fragments(scope, s, std::abs(amount));
+            if (!frags) frags = int(std::ceil(std::max(std::min(360.0 / 12, std::abs(amount) * 2 * M_PI / 2), 5.0)));
+            const OffsetJoin join = round                         ? OffsetJoin::Round
+                                    : a.boolean("chamfer", false) ? OffsetJoin::Square
+                                                                  : OffsetJoin::Miter;
+            Profile out = offsetProfile(*p, amount, join, std::abs(amount) * (1 - cosDegrees(180.0 / frags)));
+            if (out.outlines.empty()) return dropped(site, "offset() leaves nothing of its 2D children");
+            FieldPtr f = profileField(out);
+            return withProfile(f, std::move(out));
+        }
+        return implicit::makeOffset(g, float(amount));
     }
     if (n == "shell") {
         Args a = args({"t"});

@@ -226,6 +226,23 @@ Profile uniteProfiles(const std::vector<const Profile*>& children) {
     return fromTree(result);
 }
 
+Profile offsetProfile(const Profile& p, double delta, OffsetJoin join, double arcTolerance) {
+    // OpenSCAD's ClipperUtils::applyOffset: ClipperOffset with a miter limit of 10^6 (no mitre
+    // chamfers), its arc tolerance scaled to Clipper's integers, closed polygons.
+    ClipperLib::ClipperOffset co(1000000.0, arcTolerance * kClipperScale);
+    const ClipperLib::JoinType j = join == OffsetJoin::Round   ? ClipperLib::jtRound
+                                   : join == OffsetJoin::Miter ? ClipperLib::jtMiter
+                                                               : ClipperLib::jtSquare;
+    ClipperLib::PolyTree result;
+    try {
+        co.AddPaths(toPaths(p), j, ClipperLib::etClosedPolygon);
+        co.Execute(result, delta * kClipperScale);
+    } catch (...) {
+        return {};  // Clipper's range check
+    }
+    return fromTree(result);
+}
+
 Profile hullProfile(const std::vector<const Profile*>& children) {
     // OpenSCAD's applyHull2D: the hull of every vertex (CGAL's convex_hull_2; here Andrew's monotone
     // chain, which gives the same polygon), one counter-clockwise outline.

@@ -47,6 +47,10 @@ Profile combineProfiles(const std::vector<const Profile*>& children, ProfileOp o
 
 /// The union of the profiles by Clipper (non-zero rule), even of one: OpenSCAD's ClipperUtils::apply.
 Profile uniteProfiles(const std::vector<const Profile*>& children);
+/// offset(): r (round joins), delta (mitred) or delta with chamfer (square), as OpenSCAD's
+/// ClipperUtils::applyOffset; arcTolerance = |delta| (1 - cos(180 / fragments)) for round joins.
+enum class OffsetJoin { Round, Miter, Square };
+Profile offsetProfile(const Profile& p, double delta, OffsetJoin join, double arcTolerance);
 /// hull() of 2D children: the convex hull of all their vertices (OpenSCAD's applyHull2D).
 Profile hullProfile(const std::vector<const Profile*>& children);
 /// minkowski() of 2D children, as OpenSCAD's ClipperUtils::applyMinkowski builds it with Clipper.

@@ -2,6 +2,7 @@
 // booleans by Clipper, caps of profiles with holes, and the extrusions OpenSCAD drops from booleans.
 #include <cmath>
 #include <stdexcept>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -189,4 +190,24 @@ TEST(OpenScadExtrude, HostileSliceCountsAreBounded) {
         "x.csg");
     ASSERT_EQ(s.warnings.size(), 1u);
     EXPECT_NE(s.warnings[0].message.find("the twist is continuous here instead"), std::string::npos);
+}
+
+TEST(OpenScadExtrude, OffsetOfOutlinesAsOpenScadsClipperOffset) {
+    auto at = [](const char* scene, float x, float y) {
+        return csg::parseScene(std::string("linear_extrude(1) ") + scene, "o.isf").root->value(glm::vec3(x, y, 0.5f));
+    };
+    // r: round corners (OpenSCAD's $fa/$fs facets), delta: mitred, delta with chamfer: cut.
+    EXPECT_LT(at("offset(r = 1, $fn = 64) square(10);", -0.6f, -0.6f), 0.f);
+    EXPECT_GT(at("offset(r = 1, $fn = 64) square(10);", -0.9f, -0.9f), 0.f);
+    EXPECT_LT(at("offset(delta = 1) square(10);", -0.9f, -0.9f), 0.f);
+    EXPECT_GT(at("offset(delta = 1, chamfer = true) square(10);", -0.9f, -0.9f), 0.f);
+    EXPECT_LT(at("offset(delta = 1, chamfer = true) square(10);", -0.9f, 5.f), 0.f);
+    // A negative offset shrinks, and grows holes: a 4-wide hole in a 10-square offset by -2 leaves nothing.
+    EXPECT_GT(at("offset(r = -1) square(10);", 0.5f, 5.f), 0.f);
+    EXPECT_LT(at("offset(r = -1) square(10);", 1.5f, 5.f), 0.f);
+    const auto gone = csg::parseScene(
+        "linear_extrude(1) offset(r = -2) difference() { square(10); translate([3, 3]) square(4); }", "g.isf");
+    EXPECT_TRUE(gone.root->bounds().isEmpty());
+    // Of a 3D object, our extension: the field's offset.
+    EXPECT_NEAR(csg::parseScene("offset(r = 0.5) sphere(1);", "s.isf").root->value(glm::vec3(0.f)), -1.5f, 1e-5f);
 }
