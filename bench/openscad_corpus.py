@@ -161,7 +161,7 @@ def check_model(scad, args):
     if re.search(r"_extrude\(file = ", csg):
         used.append("DXF import")
     if used:
-        row["status"] = "unsupported: " + ", ".join(used)
+        row["status"] = "unsupported: " + ", ".join(dict.fromkeys(used))
         return row
     if info.get("stl_rc") is None:
         row["status"] = "openscad timed out"

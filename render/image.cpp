@@ -1,12 +1,12 @@
 #include "render/image.h"
 
-#include <dlfcn.h>
 #include <unistd.h>
 #include <algorithm>
 #include <cmath>
 #include <mutex>
 
 #include "core/error.h"
+#include "core/module.h"
 #include "render/image_module.h"
 
 namespace isoforge::render {
@@ -23,56 +23,14 @@ std::string lower(std::string s) {
     return s;
 }
 
-/// The file this code was linked into: the executable, or a shared library holding it (Python's module).
-std::filesystem::path thisObject() {
-    Dl_info info{};
-    if (dladdr(reinterpret_cast<void*>(&thisObject), &info) && info.dli_fname && info.dli_fname[0] == '/')
-        return info.dli_fname;
-    std::error_code ec;
-    return std::filesystem::read_symlink("/proc/self/exe", ec);
-}
-
-/// Where the module may be: ../lib/isoforge beside the binary (the build tree's layout and the
-/// installed one: bin/isoforge and lib/isoforge/), then the build tree and install prefix compiled in.
-std::vector<std::filesystem::path> moduleCandidates() {
-    std::vector<std::filesystem::path> dirs;
-    const std::filesystem::path self = thisObject();
-    if (!self.empty()) {
-        dirs.push_back(self.parent_path() / ".." / "lib" / "isoforge");
-        dirs.push_back(self.parent_path());
-    }
-#ifdef ISOFORGE_BUILD_MODULE_DIR
-    dirs.emplace_back(ISOFORGE_BUILD_MODULE_DIR);
-#endif
-#ifdef ISOFORGE_INSTALL_MODULE_DIR
-    dirs.emplace_back(ISOFORGE_INSTALL_MODULE_DIR);
-#endif
-    for (auto& d : dirs) d /= kModuleFile;
-    return dirs;
-}
-
 const ImageModule& loadModule() {
-    std::string tried;
-    for (const auto& candidate : moduleCandidates()) {
-        std::error_code ec;
-        if (!std::filesystem::exists(candidate, ec)) {
-            tried += "\n  " + candidate.lexically_normal().string() + ": not there";
-            continue;
-        }
-        void* handle = dlopen(candidate.c_str(), RTLD_NOW | RTLD_LOCAL);
-        if (!handle) {
-            tried += "\n  " + candidate.lexically_normal().string() + ": " + dlerror();
-            continue;
-        }
-        using Entry = const ImageModule* (*)();
-        auto entry = reinterpret_cast<Entry>(dlsym(handle, "isoforge_image_module"));
-        const ImageModule* module = entry ? entry() : nullptr;
-        if (module && module->abi == kImageModuleAbi) return *module;  // kept loaded for the process's life
-        tried += "\n  " + candidate.lexically_normal().string() + ": not a module of this isoforge build";
-        dlclose(handle);
-    }
-    throw IoError(std::string("cannot load isoforge's image module (") + kModuleFile +
-                  ", which reads and writes images through OpenImageIO); looked in:" + tried);
+    using Entry = const ImageModule* (*)();
+    auto entry = reinterpret_cast<Entry>(
+        moduleEntry(kModuleFile, "isoforge_image_module", "it reads and writes images through OpenImageIO"));
+    const ImageModule* module = entry();
+    if (!module || module->abi != kImageModuleAbi)
+        throw IoError(std::string(kModuleFile) + " is not a module of this isoforge build");
+    return *module;
 }
 
 }  // namespace
