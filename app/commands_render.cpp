@@ -294,8 +294,12 @@ void addRenderCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
             }
             if (a->fov > 0) look.camera.fov = a->fov;
             if (a->orthographic) look.camera.orthographic = true;
-            if (glm::length(look.camera.target - look.camera.eye) <= 0.f)
+            if (glm::length(look.camera.target - look.camera.eye) <= 0.f) {
+                // The scene file's camera (exit 1), or the command line's --eye/--target (2).
+                if (a->eye.empty() && a->target.empty())
+                    throw ParseError(a->input + ": the scene's camera has its eye at its target");
                 throw CLI::ValidationError("--eye", "the camera's eye and target are the same point");
+            }
 
             render::RenderStats st;
             render::Frame frame;

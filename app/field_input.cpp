@@ -85,8 +85,12 @@ implicit::FieldPtr makeField(const std::string& file, const FieldInput& in, impl
     }
     if (f->bounds().isEmpty() && !file.empty())
         throw ParseError(file + ": the scene is empty (it has no objects, or every object was ignored)");
-    if (!volume::sampleDomain(*f, clip).isBounded())
-        throw CLI::ValidationError("--box", f->describe() + " is unbounded: give --box x0,y0,z0,x1,y1,z1");
+    if (!volume::sampleDomain(*f, clip).isBounded()) {
+        // From a file, that is what the file holds (exit 1); from --shape or --expr, the command line (2).
+        const std::string why = f->describe() + " is unbounded: give --box x0,y0,z0,x1,y1,z1";
+        if (!file.empty()) throw ParseError(file + ": " + why);
+        throw CLI::ValidationError("--box", why);
+    }
     return f;
 }
 

@@ -55,6 +55,11 @@ fi
 expect_exit 1 "missing input" "$bin" mesh "$tmp/nope.vdb" -o "$tmp/x.ply"
 grep -q "nope.vdb" "$tmp/err" && ok || bad "message names the missing file"
 [ "$(wc -l <"$tmp/err")" -eq 1 ] && ok || bad "one-line message"
+# An unbounded field from a file is the file's doing (1, as a fuzzed scene turned into a plane made it);
+# from --expr, the command line's (2).
+printf 'plane(n = [0, 0, 1], d = 0);\n' > "$tmp/plane.isf"
+expect_exit 1 "unbounded scene file" "$bin" mesh "$tmp/plane.isf" -o "$tmp/x.ply"
+expect_exit 2 "unbounded --expr" "$bin" mesh --expr "z" -o "$tmp/x.ply"
 echo "not a vdb" >"$tmp/text.vdb"
 expect_exit 1 "non-VDB input" "$bin" mesh "$tmp/text.vdb" -o "$tmp/x.ply"
 head -c 5000 "$src/data/sphere.vdb" >"$tmp/cut.vdb"
@@ -98,6 +103,10 @@ grep -q "would need about" "$tmp/err" && ok || bad "absurd request names the mem
 expect_exit 0 "render showcase (Embree)" "$bin" render "$src/examples/showcase.isf" --size 160x120 --resolution 128 -o "$tmp/showcase.png"
 grep -q "Embree" "$tmp/out" && grep -q "Mrays/s" "$tmp/out" && ok || bad "render prints a summary"
 expect_exit 0 "render showcase (march)" "$bin" render "$src/examples/showcase.isf" --method march --size 96x72 -o "$tmp/showcase_m.png"
+# A scene whose camera looks from its target is the file's fault (1); the same from --eye, the command line's (2).
+printf 'camera(eye = [1, 1, 1], target = [1, 1, 1]);\nsphere(r = 1);\n' >"$tmp/eye.isf"
+expect_exit 1 "scene camera eye at target" "$bin" render "$tmp/eye.isf" --size 32x24 -o "$tmp/eye.png"
+expect_exit 2 "--eye at the target" "$bin" render --shape "sphere(r=1)" --eye 0,0,0 --target 0,0,0 --size 32x24 -o "$tmp/eye.png"
 expect_exit 0 "render a grid to EXR" "$bin" render "$src/data/sphere.vdb" --iso 0 --size 192x108 --spp 4 -o "$tmp/s.exr"
 expect_exit 0 "render a mesh" "$bin" render "$tmp/sphere.ply" --camera-auto -o "$tmp/mesh.png" --size 64x64
 expect_exit 0 "render AOVs" "$bin" render "$src/examples/bracket.isf" --aov depth,normal,id --size 64x48 -o "$tmp/frame.exr"
