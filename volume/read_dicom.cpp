@@ -4,6 +4,8 @@
 // decoded by gdcm::ImageReader, rescale slope and intercept applied (CT: Hounsfield units).
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <iostream>
 #include <map>
 #include <mutex>
@@ -20,6 +22,7 @@
 #include <glm/geometric.hpp>
 
 #include "core/error.h"
+#include "core/isolate.h"
 #include "volume/readers.h"
 
 namespace isoforge::volume::detail {
@@ -61,9 +64,7 @@ std::string scalarTypeName(const gdcm::PixelFormat& pf) {
     }
 }
 
-}  // namespace
-
-DenseVolume readDicomSeries(const std::filesystem::path& dir, const std::string& wantedSeries) {
+DenseVolume readSeriesInProcess(const std::filesystem::path& dir, const std::string& wantedSeries) {
     gdcm::Directory d;
     d.Load(dir.string(), false);
     std::vector<std::string> files = d.GetFilenames();
@@ -207,6 +208,81 @@ DenseVolume readDicomSeries(const std::filesystem::path& dir, const std::string&
         v.notes.push_back("rescale slope " + std::to_string(slope0) + ", intercept " + std::to_string(intercept0));
     if (!notDicom.empty()) v.notes.push_back(std::to_string(notDicom.size()) + " non-DICOM files ignored");
     return v;
+}
+
+// The volume as bytes, to cross from the reading process to ours: dims, the matrix, the strings, the values.
+void put(std::string& out, const void* data, std::size_t size) {
+    out.append(static_cast<const char*>(data), size);
+}
+void putString(std::string& out, const std::string& s) {
+    const std::uint64_t n = s.size();
+    put(out, &n, sizeof n);
+    out += s;
+}
+
+std::string serialize(const DenseVolume& v) {
+    std::string out;
+    put(out, v.dims.data(), sizeof v.dims);
+    put(out, &v.indexToWorld, sizeof v.indexToWorld);
+    const std::uint64_t files = v.files, notes = v.notes.size();
+    put(out, &files, sizeof files);
+    for (const std::string* s : {&v.format, &v.storedType, &v.units, &v.modality}) putString(out, *s);
+    put(out, &notes, sizeof notes);
+    for (const std::string& n : v.notes) putString(out, n);
+    put(out, v.values.data(), v.values.size() * sizeof(float));
+    return out;
+}
+
+struct Reader {
+    const std::string& bytes;
+    std::size_t at = 0;
+    void get(void* data, std::size_t size) {
+        if (size > bytes.size() - at) throw IoError("the DICOM reading process sent a short answer");
+        std::memcpy(data, bytes.data() + at, size);
+        at += size;
+    }
+    std::string getString() {
+        std::uint64_t n = 0;
+        get(&n, sizeof n);
+        if (n > bytes.size() - at) throw IoError("the DICOM reading process sent a short answer");
+        std::string s = bytes.substr(at, n);
+        at += n;
+        return s;
+    }
+};
+
+DenseVolume deserialize(const std::string& bytes) {
+    DenseVolume v;
+    Reader r{bytes};
+    r.get(v.dims.data(), sizeof v.dims);
+    r.get(&v.indexToWorld, sizeof v.indexToWorld);
+    std::uint64_t files = 0, notes = 0;
+    r.get(&files, sizeof files);
+    v.files = files;
+    for (std::string* s : {&v.format, &v.storedType, &v.units, &v.modality}) *s = r.getString();
+    r.get(&notes, sizeof notes);
+    for (std::uint64_t i = 0; i < notes; ++i) v.notes.push_back(r.getString());
+    if ((bytes.size() - r.at) != v.voxelCount() * sizeof(float))
+        throw IoError("the DICOM reading process sent a volume of the wrong size");
+    v.values.resize(v.voxelCount());
+    r.get(v.values.data(), v.values.size() * sizeof(float));
+    return v;
+}
+
+}  // namespace
+
+DenseVolume readDicomSeries(const std::filesystem::path& dir, const std::string& wantedSeries) {
+    // GDCM (as Debian builds it) asserts on input it does not expect, which would end isoforge: it reads in
+    // a child process (core/isolate.h), and a volume comes back as bytes.
+    // Its memory is bounded by what the files could justify: 64 times their bytes (decoded floats, a copy to
+    // send, compressed pixel data) and 512 MiB for GDCM itself.
+    std::uint64_t bytes = 0;
+    std::error_code ec;
+    for (const auto& e : std::filesystem::directory_iterator(dir, ec))
+        if (e.is_regular_file(ec)) bytes += e.file_size(ec);
+    return deserialize(runIsolated(
+        dir.string(), "GDCM", [&] { return serialize(readSeriesInProcess(dir, wantedSeries)); },
+        (std::uint64_t(512) << 20) + 64 * bytes));
 }
 
 }  // namespace isoforge::volume::detail

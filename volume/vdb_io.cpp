@@ -10,6 +10,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "volume/vdb_layout.h"
 
 namespace isoforge::volume {
 
@@ -48,6 +49,7 @@ openvdb::GridPtrVec readVdb(const std::filesystem::path& path) {
         // Read through a stream over the whole file: no delayed loading, no memory mapping, so a
         // truncated file fails here, in the reader, and not later while meshing.
         std::ifstream in(path, std::ios::binary);
+        detail::checkVdbLayout(in, std::filesystem::file_size(path), path);
         // OpenVDB does not check its stream; make a short read throw at once, rather than letting
         // it parse zeros (which, besides giving garbage, leaks nodes inside OpenVDB).
         in.exceptions(std::ios::failbit | std::ios::badbit);
