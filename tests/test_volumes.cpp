@@ -388,6 +388,24 @@ TEST(Volumes, RawVoxelsAndSparseGridsRoundTrip) {
     } catch (const IoError& e) {
         EXPECT_NE(std::string(e.what()).find("need 770048 bytes; the file has 761856"), std::string::npos) << e.what();
     }
+    // A 100-byte file claiming 10^12 voxels: the ResourceError with the estimate, before any allocation; one
+    // claiming less than the machine holds but more than the file has: the IoError with both sizes.
+    writeBytes(dir / "tiny.raw", std::string(100, '\0'));
+    o.rawDims = {10000, 10000, 10000};
+    o.rawType = "uint8";
+    try {
+        volume::readVolume(dir / "tiny.raw", o);
+        FAIL() << "no error";
+    } catch (const ResourceError& e) {
+        EXPECT_NE(std::string(e.what()).find("voxels would need about 3814697 MiB"), std::string::npos) << e.what();
+    }
+    o.rawDims = {1000, 1000, 100};
+    try {
+        volume::readVolume(dir / "tiny.raw", o);
+        FAIL() << "no error";
+    } catch (const IoError& e) {
+        EXPECT_NE(std::string(e.what()).find("need 100000000 bytes; the file has 100"), std::string::npos) << e.what();
+    }
     // Dense -> sparse (two slabs of 64 slices) -> dense: the same voxels, the same geometry.
     const auto grid = volume::toGrid(nrrd);
     EXPECT_LT(grid->activeVoxelCount(), nrrd.voxelCount());  // the background (0) is culled
