@@ -7,8 +7,10 @@
 #include <iostream>
 #include <new>
 
+#include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
+#include <spawn.h>
 #include <sys/resource.h>
 #include <sys/types.h>
 #include <sys/wait.h>
@@ -16,11 +18,13 @@
 
 #include "core/error.h"
 
+extern char** environ;
+
 namespace isoforge {
 
 namespace {
 
-// The child's answer: one byte for what it is, then the bytes of the result or the error's message.
+// The helper's answer on stdout: one byte for what it is, then the bytes of the result or the error's message.
 constexpr char kResult = 'R', kIoError = 'I', kParseError = 'P', kResourceError = 'M', kOther = 'E';
 
 bool writeAll(int fd, const char* data, std::size_t size) {
@@ -34,17 +38,15 @@ bool writeAll(int fd, const char* data, std::size_t size) {
     return true;
 }
 
-[[noreturn]] void answer(int fd, char kind, const std::string& bytes) {
-    const bool ok = writeAll(fd, &kind, 1) && writeAll(fd, bytes.data(), bytes.size());
-    // _exit: no atexit handlers, static destructors or leak checks of the parent's state in the child.
-    ::_exit(ok ? 0 : 3);
+int answer(char kind, const std::string& bytes) {
+    return writeAll(STDOUT_FILENO, &kind, 1) && writeAll(STDOUT_FILENO, bytes.data(), bytes.size()) ? 0 : 3;
 }
 
 // The address space the process holds now (with a sanitizer, its shadow reservations too) plus `extra`.
 void limitAddressSpace(std::uint64_t extra) {
     std::FILE* f = std::fopen("/proc/self/statm", "r");
-    unsigned long long pages = 0;
     if (!f) return;
+    unsigned long long pages = 0;
     const bool ok = std::fscanf(f, "%llu", &pages) == 1;
     std::fclose(f);
     if (!ok) return;
@@ -52,53 +54,73 @@ void limitAddressSpace(std::uint64_t extra) {
     ::setrlimit(RLIMIT_AS, &limit);
 }
 
+struct Pipe {
+    int fd[2] = {-1, -1};
+    ~Pipe() {
+        for (int f : fd)
+            if (f >= 0) ::close(f);
+    }
+};
+
 }  // namespace
 
-std::string runIsolated(const std::string& what, const std::string& library, const std::function<std::string()>& work,
-                        std::uint64_t memoryLimit) {
-    // Two pipes: the answer, and the child's stderr (the library's messages: passed on when it succeeds, its
-    // last line quoted when it aborts).
-    int out[2], err[2];
-    if (::pipe(out) != 0) throw ResourceError(what + ": cannot create a pipe: " + std::strerror(errno));
-    if (::pipe(err) != 0) {
-        ::close(out[0]);
-        ::close(out[1]);
+namespace {
+
+int respond(const std::string& what, const std::string& library, std::uint64_t memoryLimit,
+            const std::function<std::string()>& work) {
+    try {
+        return answer(kResult, work());
+    } catch (const std::bad_alloc&) {
+        return answer(kResourceError, what + ": reading it with " + library + " needed more than the " +
+                                          std::to_string(memoryLimit >> 20) +
+                                          " MiB its size justifies (a corrupt length field?)");
+    } catch (const ParseError& e) {
+        return answer(kParseError, e.what());
+    } catch (const IoError& e) {
+        return answer(kIoError, e.what());
+    } catch (const ResourceError& e) {
+        return answer(kResourceError, e.what());
+    } catch (const std::exception& e) {
+        return answer(kOther, e.what());
+    }
+}
+
+}  // namespace
+
+[[noreturn]] void helperMain(const std::string& what, const std::string& library, std::uint64_t memoryLimit,
+                             const std::function<std::string()>& work) {
+    if (memoryLimit > 0) limitAddressSpace(memoryLimit);
+    // _exit once answered: a process that lives for one read needs no static destructors (GDCM's), and a
+    // sanitizer's leak report at exit would turn a good answer into a failed process.
+    ::_exit(respond(what, library, memoryLimit, work));
+}
+
+std::string runHelper(const std::string& what, const std::string& library, const std::filesystem::path& program,
+                      const std::vector<std::string>& args) {
+    Pipe out, err;
+    if (::pipe2(out.fd, O_CLOEXEC) != 0 || ::pipe2(err.fd, O_CLOEXEC) != 0)
         throw ResourceError(what + ": cannot create a pipe: " + std::strerror(errno));
-    }
-    const pid_t pid = ::fork();
-    if (pid < 0) {
-        for (int fd : {out[0], out[1], err[0], err[1]}) ::close(fd);
-        throw ResourceError(what + ": cannot start a process to read it: " + std::strerror(errno));
-    }
-    if (pid == 0) {
-        ::close(out[0]);
-        ::close(err[0]);
-        ::dup2(err[1], STDERR_FILENO);
-        ::close(err[1]);
-        if (memoryLimit > 0) limitAddressSpace(memoryLimit);
-        try {
-            answer(out[1], kResult, work());
-        } catch (const std::bad_alloc&) {
-            answer(out[1], kResourceError,
-                   what + ": reading it with " + library + " needed more than the " +
-                       std::to_string(memoryLimit >> 20) + " MiB its size justifies (a corrupt length field?)");
-        } catch (const ParseError& e) {
-            answer(out[1], kParseError, e.what());
-        } catch (const IoError& e) {
-            answer(out[1], kIoError, e.what());
-        } catch (const ResourceError& e) {
-            answer(out[1], kResourceError, e.what());
-        } catch (const std::exception& e) {
-            answer(out[1], kOther, e.what());
-        } catch (...) {
-            answer(out[1], kOther, "an unknown exception");
-        }
-    }
-    ::close(out[1]);
-    ::close(err[1]);
-    // Both pipes drained together: a child blocked on a full stderr pipe would never finish its answer.
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
+    posix_spawn_file_actions_adddup2(&actions, out.fd[1], STDOUT_FILENO);
+    posix_spawn_file_actions_adddup2(&actions, err.fd[1], STDERR_FILENO);
+    std::vector<std::string> argv0 = {program.string()};
+    argv0.insert(argv0.end(), args.begin(), args.end());
+    std::vector<char*> argv;
+    for (auto& a : argv0) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    pid_t pid = 0;
+    const int rc = ::posix_spawn(&pid, program.c_str(), &actions, nullptr, argv.data(), environ);
+    posix_spawn_file_actions_destroy(&actions);
+    if (rc != 0) throw ResourceError(what + ": cannot start " + program.string() + ": " + std::strerror(rc));
+    ::close(out.fd[1]);
+    ::close(err.fd[1]);
+    out.fd[1] = err.fd[1] = -1;
+
+    // Both pipes drained together: a helper blocked on a full stderr pipe would never finish its answer.
     std::string reply, messages;
-    pollfd fds[2] = {{out[0], POLLIN, 0}, {err[0], POLLIN, 0}};
+    pollfd fds[2] = {{out.fd[0], POLLIN, 0}, {err.fd[0], POLLIN, 0}};
     std::string* sinks[2] = {&reply, &messages};
     int open = 2;
     char buffer[1 << 16];
@@ -112,7 +134,6 @@ std::string runIsolated(const std::string& what, const std::string& library, con
             const ssize_t n = ::read(fds[i].fd, buffer, sizeof buffer);
             if (n < 0 && errno == EINTR) continue;
             if (n <= 0) {
-                ::close(fds[i].fd);
                 fds[i].fd = -1;
                 --open;
             } else {
@@ -120,8 +141,6 @@ std::string runIsolated(const std::string& what, const std::string& library, con
             }
         }
     }
-    for (const pollfd& p : fds)
-        if (p.fd >= 0) ::close(p.fd);
     int status = 0;
     while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
     }
@@ -136,12 +155,16 @@ std::string runIsolated(const std::string& what, const std::string& library, con
                       (name ? name : "?") + "); the file is corrupt or of a kind " + library + " does not expect" +
                       (last.empty() ? "" : " (" + last + ")"));
     }
+    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0 || reply.empty()) {
+        const std::size_t line = messages.find('\n');
+        throw IoError(what + ": the process reading it with " + library + " (" + program.filename().string() +
+                      ") ended without an answer" +
+                      (messages.empty() ? std::string() : ": " + messages.substr(0, line)));
+    }
     // Passed on with a result; with an error, the error says it (GDCM warns at length about every file of a
     // directory that is not DICOM).
-    if (!messages.empty() && !reply.empty() && reply[0] == kResult) std::cerr << messages << std::flush;
-    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0 || reply.empty())
-        throw IoError(what + ": the process reading it with " + library + " ended without an answer");
     const char kind = reply[0];
+    if (!messages.empty() && kind == kResult) std::cerr << messages << std::flush;
     reply.erase(0, 1);
     switch (kind) {
         case kResult:

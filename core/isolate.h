@@ -1,25 +1,35 @@
 #pragma once
 /// @file Running a third-party reader where its abort() cannot end isoforge: some libraries under us stop
 /// the process on input they do not expect (Debian builds GDCM with assert() enabled: a cut DICOM meta
-/// header ends in `assert(0 && "Should not happen")`). No check of ours can foresee every such assertion, so
-/// the work runs in a forked child process and hands its result back through a pipe; a child that dies
-/// becomes an IoError naming what it was reading.
+/// header ends in `assert(0 && "Should not happen")`), or allocate what a length field says. No check of
+/// ours can foresee every such assertion, so the reading runs in a helper program (lib/isoforge/, found
+/// as modules are) started with posix_spawn, which hands its result back through a pipe; a helper that
+/// dies becomes an IoError naming what it was reading. A fresh program rather than a fork: a forked
+/// child of a threaded process can inherit a lock another thread held (AddressSanitizer's allocator in
+/// clang 14 is not fork-safe: a CI run hung on it).
 #include <cstdint>
+#include <filesystem>
 #include <functional>
 #include <string>
+#include <vector>
 
 namespace isoforge {
 
-/// Runs `work` in a child process (fork, no exec) and returns the bytes it returned. An IoError,
-/// ParseError or ResourceError thrown by `work` is thrown again here with its message; a child killed by a
-/// signal (an abort inside the library), or one that ends without answering, throws
-/// IoError("<what>: <library> stopped the reading process (signal N: ...)").
-/// `work` must not use threads started before the call (only the calling thread exists in the child).
-/// `memoryLimit` (bytes, 0 = none) bounds the child's address space beyond what the process holds at the
-/// call, so that a length field the library believes cannot make it take more than the input justifies: an
-/// allocation past it is a ResourceError saying so.
-/// @throw ResourceError if no process can be started.
-std::string runIsolated(const std::string& what, const std::string& library, const std::function<std::string()>& work,
-                        std::uint64_t memoryLimit = 0);
+/// Runs `program` with `args` (stdin closed, stdout and stderr piped) and returns the bytes its
+/// helperMain's work returned. An IoError, ParseError or ResourceError the work threw is thrown again here
+/// with its message; a helper killed by a signal (an abort inside the library) throws
+/// IoError("<what>: <library> stopped the reading process (signal N: ...) (<its last stderr line>)").
+/// The helper's stderr is passed on to ours when it succeeds.
+/// @throw ResourceError if the program cannot be started.
+std::string runHelper(const std::string& what, const std::string& library, const std::filesystem::path& program,
+                      const std::vector<std::string>& args);
+
+/// The main of a helper program: bounds the address space to what the process holds now plus
+/// `memoryLimit` bytes (0: no bound; with a sanitizer, its shadow reservations are part of what it holds),
+/// runs `work` and writes its answer to stdout for runHelper. An allocation past the bound is a
+/// ResourceError saying that reading `what` with `library` needed more than its size justifies.
+/// Ends the process (_exit) once it has answered.
+[[noreturn]] void helperMain(const std::string& what, const std::string& library, std::uint64_t memoryLimit,
+                             const std::function<std::string()>& work);
 
 }  // namespace isoforge

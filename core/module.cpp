@@ -1,6 +1,7 @@
 #include "core/module.h"
 
 #include <dlfcn.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <vector>
@@ -59,6 +60,15 @@ void* moduleEntry(const std::string& file, const char* symbol, const std::string
         dlclose(handle);
     }
     throw IoError("cannot load isoforge's module " + file + " (" + what + "); looked in:" + tried);
+}
+
+std::filesystem::path helperProgram(const std::string& file, const std::string& what) {
+    std::string tried;
+    for (const auto& candidate : candidates(file)) {
+        if (::access(candidate.c_str(), X_OK) == 0) return candidate.lexically_normal();
+        tried += "\n  " + candidate.lexically_normal().string() + ": not there";
+    }
+    throw IoError("cannot find isoforge's helper " + file + " (" + what + "); looked in:" + tried);
 }
 
 }  // namespace isoforge

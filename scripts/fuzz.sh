@@ -30,7 +30,7 @@ run() {  # target max_len [seconds]: bounded total time (or FUZZ_RUNS), input le
   local limit="-max_total_time=${3:-$third}"
   [ -n "${FUZZ_RUNS:-}" ] && limit="-runs=$FUZZ_RUNS"
   echo "== fuzz_$1"
-  build-fuzz/fuzz_$1 "$PWD/$seeds" "$limit" -max_len="$2" -timeout=10 -rss_limit_mb=2048 \
+  build-fuzz/fuzz_$1 "$PWD/$seeds" "$limit" -max_len="$2" -timeout=10 -rss_limit_mb=2048 ${flags:-} \
       -print_final_stats=1 -artifact_prefix="$PWD/build-fuzz/" 2>&1 | tail -12
 }
 seed() { { printf "\\$(printf %03o "$1")"; cat; } > "$seeds/$2"; }  # a selector byte, then the file
@@ -106,7 +106,9 @@ fuzz_dicom() {
 fuzz_vdb() {
   cp tests/data/fuzz/seeds/*.vdb "$seeds"/
   head -c 6000 data/sphere.vdb > "$seeds/sphere-start.vdb"
-  run vdb 100000
+  # A claimed 64 GB buffer must be the bad_alloc the release build turns into an IoError (tests/fuzz_vdb.cpp):
+  # single allocations up to 1 TB reach the allocator; what is resident stays under -rss_limit_mb.
+  flags=-malloc_limit_mb=1048576 run vdb 100000
 }
 
 fuzz_bpt() {

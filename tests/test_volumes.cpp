@@ -533,7 +533,7 @@ TEST(Volumes, FuzzFindingsAreErrorsNamingTheFile) {
     // Inputs the fuzzers (tests/fuzz_volume_readers.cpp, fuzz_dicom.cpp) found, kept in tests/data/fuzz/volume/
     // (a directory is a DICOM series): each must be an IoError that names the file (a bad file exits 1), and
     // nothing may crash or leak of ours on the way. dicom-meta-element-cut/ made GDCM abort the process on an
-    // assertion; it reads in a child process now (core/isolate.h).
+    // assertion; GDCM reads in a helper program now (core/isolate.h).
     std::size_t n = 0;
     for (const auto& e : std::filesystem::directory_iterator(test::sourceDir() / "tests/data/fuzz/volume")) {
         ++n;

@@ -23,6 +23,7 @@
 
 #include "core/error.h"
 #include "core/isolate.h"
+#include "core/module.h"
 #include "volume/readers.h"
 
 namespace isoforge::volume::detail {
@@ -64,7 +65,9 @@ std::string scalarTypeName(const gdcm::PixelFormat& pf) {
     }
 }
 
-DenseVolume readSeriesInProcess(const std::filesystem::path& dir, const std::string& wantedSeries) {
+}  // namespace
+
+DenseVolume readDicomSeriesHere(const std::filesystem::path& dir, const std::string& wantedSeries) {
     gdcm::Directory d;
     d.Load(dir.string(), false);
     std::vector<std::string> files = d.GetFilenames();
@@ -210,6 +213,8 @@ DenseVolume readSeriesInProcess(const std::filesystem::path& dir, const std::str
     return v;
 }
 
+namespace {
+
 // The volume as bytes, to cross from the reading process to ours: dims, the matrix, the strings, the values.
 void put(std::string& out, const void* data, std::size_t size) {
     out.append(static_cast<const char*>(data), size);
@@ -220,7 +225,9 @@ void putString(std::string& out, const std::string& s) {
     out += s;
 }
 
-std::string serialize(const DenseVolume& v) {
+}  // namespace
+
+std::string serializeVolume(const DenseVolume& v) {
     std::string out;
     put(out, v.dims.data(), sizeof v.dims);
     put(out, &v.indexToWorld, sizeof v.indexToWorld);
@@ -232,6 +239,8 @@ std::string serialize(const DenseVolume& v) {
     put(out, v.values.data(), v.values.size() * sizeof(float));
     return out;
 }
+
+namespace {
 
 struct Reader {
     const std::string& bytes;
@@ -251,7 +260,9 @@ struct Reader {
     }
 };
 
-DenseVolume deserialize(const std::string& bytes) {
+}  // namespace
+
+DenseVolume deserializeVolume(const std::string& bytes) {
     DenseVolume v;
     Reader r{bytes};
     r.get(v.dims.data(), sizeof v.dims);
@@ -269,20 +280,19 @@ DenseVolume deserialize(const std::string& bytes) {
     return v;
 }
 
-}  // namespace
-
 DenseVolume readDicomSeries(const std::filesystem::path& dir, const std::string& wantedSeries) {
     // GDCM (as Debian builds it) asserts on input it does not expect, which would end isoforge: it reads in
-    // a child process (core/isolate.h), and a volume comes back as bytes.
-    // Its memory is bounded by what the files could justify: 64 times their bytes (decoded floats, a copy to
-    // send, compressed pixel data) and 512 MiB for GDCM itself.
+    // a helper program (core/isolate.h), and the volume comes back as bytes. The helper's memory is bounded
+    // by what the files could justify: 64 times their bytes (decoded floats, the copy it sends, compressed
+    // pixel data) and 512 MiB for GDCM itself.
     std::uint64_t bytes = 0;
     std::error_code ec;
     for (const auto& e : std::filesystem::directory_iterator(dir, ec))
         if (e.is_regular_file(ec)) bytes += e.file_size(ec);
-    return deserialize(runIsolated(
-        dir.string(), "GDCM", [&] { return serialize(readSeriesInProcess(dir, wantedSeries)); },
-        (std::uint64_t(512) << 20) + 64 * bytes));
+    const std::uint64_t limit = (std::uint64_t(512) << 20) + 64 * bytes;
+    const auto program = helperProgram("isoforge-dicom-reader", "it reads DICOM series");
+    return deserializeVolume(
+        runHelper(dir.string(), "GDCM", program, {dir.string(), wantedSeries, std::to_string(limit)}));
 }
 
 }  // namespace isoforge::volume::detail

@@ -15,6 +15,11 @@ DenseVolume readNifti(const std::filesystem::path& path);
 DenseVolume readNrrd(const std::filesystem::path& path);
 DenseVolume readMetaImage(const std::filesystem::path& path);
 DenseVolume readDicomSeries(const std::filesystem::path& dir, const std::string& series);
+/// What readDicomSeries runs in its helper program (volume/dicom_reader_main.cpp): GDCM in this process.
+DenseVolume readDicomSeriesHere(const std::filesystem::path& dir, const std::string& series);
+/// A volume as bytes and back (the helper's answer).
+std::string serializeVolume(const DenseVolume& v);
+DenseVolume deserializeVolume(const std::string& bytes);
 DenseVolume readRaw(const std::filesystem::path& path, const VolumeReadOptions& o);
 DenseVolume readVdbVolume(const std::filesystem::path& path, const std::string& grid);
 

@@ -10,16 +10,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
-#include "core/isolate.h"
 #include "volume/vdb_layout.h"
-
-#if defined(__SANITIZE_ADDRESS__)
-#define ISOFORGE_ADDRESS_SANITIZER 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define ISOFORGE_ADDRESS_SANITIZER 1
-#endif
-#endif
 
 namespace isoforge::volume {
 
@@ -53,7 +44,7 @@ void precheck(const std::filesystem::path& path) {
 
 namespace {
 
-openvdb::GridPtrVec readVdbInProcess(const std::filesystem::path& path) {
+openvdb::GridPtrVec readGrids(const std::filesystem::path& path) {
     try {
         // Read through a stream over the whole file: no delayed loading, no memory mapping, so a
         // truncated file fails here, in the reader, and not later while meshing.
@@ -84,23 +75,7 @@ openvdb::GridPtrVec readVdbInProcess(const std::filesystem::path& path) {
 openvdb::GridPtrVec readVdb(const std::filesystem::path& path) {
     initializeOpenVdb();
     precheck(path);
-#ifdef ISOFORGE_ADDRESS_SANITIZER
-    // OpenVDB allocates the compressed size a voxel buffer claims before reading it (64 GB from an 8-byte
-    // field). Here that is a bad_alloc (an IoError) or a reservation freed at the short read that follows,
-    // without touching memory; under AddressSanitizer, whose operator new cannot throw, it ends the process.
-    // So sanitizer builds (the fuzzers) read the file first in a child process, its memory bounded by what
-    // the file could hold (zlib's ratio is at most 1032:1) plus 1 GiB, as the allocator would bound it; a
-    // second read in every release command would cost 50-70% of `isoforge info`'s time on OpenVDB's samples.
-    const std::uint64_t size = std::filesystem::file_size(path);
-    runIsolated(
-        path.string(), "OpenVDB",
-        [&] {
-            readVdbInProcess(path);
-            return std::string();
-        },
-        (std::uint64_t(1) << 30) + 1100 * size);
-#endif
-    return readVdbInProcess(path);
+    return readGrids(path);
 }
 
 openvdb::FloatGrid::Ptr readFloatGrid(const std::filesystem::path& path, const std::optional<std::string>& name) {

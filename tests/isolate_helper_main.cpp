@@ -1,0 +1,35 @@
+// A helper program for Isolate.* (tests/test_isolate.cpp): `isoforge-test-helper MODE` answers as a reader
+// helper would: big (10 MB, with 5,000 lines of warnings on stderr), empty, parse, resource, odd, abort,
+// hog (allocates 1 GiB under a 64 MiB bound).
+#include <cstdlib>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "core/error.h"
+#include "core/isolate.h"
+
+int main(int argc, char** argv) {
+    const std::string mode = argc > 1 ? argv[1] : "";
+    isoforge::helperMain("f", "test", mode == "hog" ? std::uint64_t(64) << 20 : 0, [&]() -> std::string {
+        if (mode == "big") {
+            for (int i = 0; i < 5000; ++i) std::cerr << "a warning line of the library, number " << i << "\n";
+            std::string s(10'000'000, 'x');
+            for (std::size_t i = 0; i < s.size(); i += 4096) s[i] = char('a' + i % 26);
+            return s;
+        }
+        if (mode == "empty") return {};
+        if (mode == "parse") throw isoforge::ParseError("f:1:2: bad");
+        if (mode == "resource") throw isoforge::ResourceError("f: needs 1 TB");
+        if (mode == "odd") throw std::runtime_error("odd");
+        if (mode == "abort") {
+            std::cerr << "gdcm.cxx:436: Assertion `0 && \"Should not happen\"' failed.\n";
+            std::abort();
+        }
+        if (mode == "hog") {
+            std::vector<char> v(std::size_t(1) << 30, 1);
+            return std::string(1, v[12345]);
+        }
+        return "?";
+    });
+}
