@@ -45,13 +45,26 @@ if [ "$mode" = "--sanitize-quick" ]; then
 fi
 if [ "$mode" = "--tsan" ]; then
   # The determinism claim's race check: the tests that compare results across thread counts (marching
-  # cubes, sampling, --sharp with --max-error, rendering) and the parallel mesh and volume tests, built by
-  # clang with ThreadSanitizer in build-tsan/. oneTBB and OpenVDB come from Debian uninstrumented:
-  # tests/tsan.supp names what TSan cannot see through them (docs/reliability.md).
+  # cubes, sampling, --sharp with --max-error, rendering) and the marching-cubes and sampling suites, built
+  # by clang with ThreadSanitizer in build-tsan/, on a oneTBB of Debian's version (2021.8) built with
+  # ThreadSanitizer too: Debian's libtbb is not instrumented, so TSan cannot see a task handed to another
+  # thread, and every parallel_for reads as a race. TBB_SOURCE=DIR: oneTBB's sources (else a shallow clone
+  # of its v2021.8.0 tag). tests/tsan.supp holds what is left of TBB's and OpenVDB's own.
+  tbb=build-tsan/onetbb
+  if [ ! -f "$tbb/lib/libtbb.so.12" ]; then
+    src=${TBB_SOURCE:-build-tsan/onetbb-src}
+    [ -d "$src" ] || git clone -q --depth 1 --branch v2021.8.0 https://github.com/oneapi-src/oneTBB.git "$src"
+    CXX=clang++ CC=clang cmake -S "$src" -B build-tsan/onetbb-build -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+        -DTBB_SANITIZE=thread -DTBB_TEST=OFF -DTBB_EXAMPLES=OFF -DTBB_STRICT=OFF >/dev/null
+    cmake --build build-tsan/onetbb-build --target tbb
+    mkdir -p "$tbb/lib"
+    cp -a build-tsan/onetbb-build/*_relwithdebinfo/libtbb.so* "$tbb/lib/"
+  fi
   CXX=clang++ CC=clang cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
       "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" -DISOFORGE_TSAN=ON -DISOFORGE_BUILD_BENCH=OFF >/dev/null
   suites=(test_volume test_sample test_csg test_render)
   cmake --build build-tsan --target "${suites[@]}"
+  export LD_LIBRARY_PATH="$PWD/$tbb/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
   export TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1:suppressions=$PWD/tests/tsan.supp"
   cd build-tsan
   ctest --output-on-failure -j1 --timeout 900 -R "${TSAN_TESTS:-WhateverTheThreadCount|MarchingCubes\.|Sample\.}"
