@@ -346,6 +346,13 @@ private:
         return false;
     }
     std::uint32_t expression() {
+        // Every nesting (parentheses, function arguments) passes here: bounded, so that no input can run the
+        // recursion off the stack (fuzz_expression found a run of 4,000 signs, read recursively then).
+        if (++depth_ > kMaxNesting) fail("expression nested more than " + std::to_string(kMaxNesting) + " deep");
+        struct Leave {
+            int& depth;
+            ~Leave() { --depth; }
+        } leave{depth_};
         std::uint32_t v = term();
         for (;;) {
             if (accept('+'))
@@ -368,9 +375,16 @@ private:
         }
     }
     std::uint32_t unary() {
-        if (accept('-')) return b_.unary(Op::Neg, unary());
-        if (accept('+')) return unary();
-        return power();
+        // A run of signs in a loop: an odd number of '-' negates once.
+        bool negate = false;
+        for (;;) {
+            if (accept('-'))
+                negate = !negate;
+            else if (!accept('+'))
+                break;
+        }
+        const std::uint32_t v = power();
+        return negate ? b_.unary(Op::Neg, v) : v;
     }
     std::uint32_t power() {
         const std::uint32_t base = primary();
@@ -439,7 +453,9 @@ private:
         fail("expected a number, x, y, z, a function or '(', found '" + std::string(1, c) + "'");
     }
     std::string_view text_;
+    static constexpr int kMaxNesting = 500;
     std::size_t pos_ = 0;
+    int depth_ = 0;
     TapeBuilder b_;
 };
 

@@ -201,6 +201,15 @@ TEST(Tape, ExpressionErrorsGiveTheColumn) {
     EXPECT_NE(err("(x + y").find("expected ')'"), std::string::npos);
     EXPECT_NE(err("x y").find("expression:1:3:"), std::string::npos) << err("x y");
     EXPECT_NE(err("").find("found nothing"), std::string::npos);
+    // fuzz_expression's finding: 4,000 signs in a row overflowed the stack (read recursively). Runs of signs
+    // now read in a loop, and nesting is bounded.
+    const std::string signs = "x^4 -" + std::string(100000, '+') + "-" + std::string(100001, '-') + "y";
+    const auto tape = parseExpression(signs);
+    EXPECT_EQ(tape->eval(glm::vec3(1.f, 2.f, 3.f)), 1.f - 2.f);
+    EXPECT_NE(err((std::string(600, '(') + "x" + std::string(600, ')')).c_str()).find("nested more than 500 deep"),
+              std::string::npos);
+    EXPECT_NE(err((std::string(300, '-') + "sin(" + std::string(550, '(') + "x").c_str()).find("nested"),
+              std::string::npos);
 }
 
 TEST(Tape, VmFilesReadAndFailWithLineAndColumn) {
