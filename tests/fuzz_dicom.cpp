@@ -7,25 +7,14 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
-#include <cstdio>
 #include <filesystem>
 #include <string>
 
 #include <unistd.h>
 
 #include "core/error.h"
+#include "fuzz_file.h"
 #include "volume/dense_volume.h"
-
-namespace {
-
-void write(const std::filesystem::path& p, const std::uint8_t* data, std::size_t size) {
-    std::FILE* f = std::fopen(p.c_str(), "wb");
-    if (!f) __builtin_trap();
-    if (size && std::fwrite(data, 1, size, f) != size) __builtin_trap();
-    std::fclose(f);
-}
-
-}  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
     if (size < 2) return 0;
@@ -34,8 +23,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     std::filesystem::remove_all(dir);
     std::filesystem::create_directories(dir);
     const std::size_t rest = size - 2, first = std::min<std::size_t>(rest, data[0] | (data[1] << 8));
-    write(dir / "a.dcm", data + 2, first);
-    if (rest > first) write(dir / "b.dcm", data + 2 + first, rest - first);
+    isoforge::fuzz::writeFile(dir / "a.dcm", data + 2, first);
+    if (rest > first) isoforge::fuzz::writeFile(dir / "b.dcm", data + 2 + first, rest - first);
     try {
         const isoforge::volume::DenseVolume v = isoforge::volume::readVolume(dir);
         if (v.values.size() != v.voxelCount()) __builtin_trap();

@@ -244,16 +244,17 @@ namespace {
 
 struct Reader {
     const std::string& bytes;
+    const std::string& what;
     std::size_t at = 0;
     void get(void* data, std::size_t size) {
-        if (size > bytes.size() - at) throw IoError("the DICOM reading process sent a short answer");
+        if (size > bytes.size() - at) throw IoError(what + ": the DICOM reading process sent a short answer");
         std::memcpy(data, bytes.data() + at, size);
         at += size;
     }
     std::string getString() {
         std::uint64_t n = 0;
         get(&n, sizeof n);
-        if (n > bytes.size() - at) throw IoError("the DICOM reading process sent a short answer");
+        if (n > bytes.size() - at) throw IoError(what + ": the DICOM reading process sent a short answer");
         std::string s = bytes.substr(at, n);
         at += n;
         return s;
@@ -262,9 +263,9 @@ struct Reader {
 
 }  // namespace
 
-DenseVolume deserializeVolume(const std::string& bytes) {
+DenseVolume deserializeVolume(const std::string& bytes, const std::string& what) {
     DenseVolume v;
-    Reader r{bytes};
+    Reader r{bytes, what};
     r.get(v.dims.data(), sizeof v.dims);
     r.get(&v.indexToWorld, sizeof v.indexToWorld);
     std::uint64_t files = 0, notes = 0;
@@ -274,7 +275,7 @@ DenseVolume deserializeVolume(const std::string& bytes) {
     r.get(&notes, sizeof notes);
     for (std::uint64_t i = 0; i < notes; ++i) v.notes.push_back(r.getString());
     if ((bytes.size() - r.at) != v.voxelCount() * sizeof(float))
-        throw IoError("the DICOM reading process sent a volume of the wrong size");
+        throw IoError(what + ": the DICOM reading process sent a volume of the wrong size");
     v.values.resize(v.voxelCount());
     r.get(v.values.data(), v.values.size() * sizeof(float));
     return v;
@@ -292,7 +293,7 @@ DenseVolume readDicomSeries(const std::filesystem::path& dir, const std::string&
     const std::uint64_t limit = (std::uint64_t(512) << 20) + 64 * bytes;
     const auto program = helperProgram("isoforge-dicom-reader", "it reads DICOM series");
     return deserializeVolume(
-        runHelper(dir.string(), "GDCM", program, {dir.string(), wantedSeries, std::to_string(limit)}));
+        runHelper(dir.string(), "GDCM", program, {dir.string(), wantedSeries, std::to_string(limit)}), dir.string());
 }
 
 }  // namespace isoforge::volume::detail

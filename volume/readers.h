@@ -19,7 +19,7 @@ DenseVolume readDicomSeries(const std::filesystem::path& dir, const std::string&
 DenseVolume readDicomSeriesHere(const std::filesystem::path& dir, const std::string& series);
 /// A volume as bytes and back (the helper's answer).
 std::string serializeVolume(const DenseVolume& v);
-DenseVolume deserializeVolume(const std::string& bytes);
+DenseVolume deserializeVolume(const std::string& bytes, const std::string& what);
 DenseVolume readRaw(const std::filesystem::path& path, const VolumeReadOptions& o);
 DenseVolume readVdbVolume(const std::filesystem::path& path, const std::string& grid);
 
