@@ -338,8 +338,8 @@ void addConvertCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
             if (!toVdb && !toNifti)
                 throw CLI::ValidationError("--output", a->output + ": expected a .vdb, .nii or .nii.gz file name");
             std::string ext = std::filesystem::path(a->input).extension().string();
-            const volume::DenseVolume v =
-                ext == ".vdb" ? volume::toDense(*volume::readFloatGrid(a->input)) : loadVolume(a->input, a->volume, g);
+            const volume::DenseVolume v = ext == ".vdb" ? volume::toDense(*volume::readFloatGrid(a->input), a->input)
+                                                        : loadVolume(a->input, a->volume, g);
             const auto t0 = std::chrono::steady_clock::now();
             if (toNifti) {
                 volume::writeNifti(a->output, v);
@@ -490,8 +490,9 @@ void addSliceCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
         c.run = [&g, a] {
             std::string vext = std::filesystem::path(a->input).extension().string();
             if (isDenseVolumeFile(a->input) || (!a->axis.empty() && vext == ".vdb")) {
-                const volume::DenseVolume v = vext == ".vdb" ? volume::toDense(*volume::readFloatGrid(a->input))
-                                                             : loadVolume(a->input, a->volume, g);
+                const volume::DenseVolume v = vext == ".vdb"
+                                                  ? volume::toDense(*volume::readFloatGrid(a->input), a->input)
+                                                  : loadVolume(a->input, a->volume, g);
                 const render::Anatomical view = render::parseAnatomical(a->axis.empty() ? "axial" : a->axis);
                 const render::ViewAxes va = render::viewAxes(v, view);
                 const std::int64_t n = v.dims[std::size_t(va.slice)];

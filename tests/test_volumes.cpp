@@ -21,6 +21,7 @@
 #include "volume/dense_volume.h"
 #include "volume/labels.h"
 #include "volume/marching_cubes.h"
+#include "volume/vdb_io.h"
 
 using namespace isoforge;
 using volume::DenseVolume;
@@ -406,6 +407,23 @@ TEST(Volumes, RawVoxelsAndSparseGridsRoundTrip) {
     } catch (const IoError& e) {
         EXPECT_NE(std::string(e.what()).find("need 100000000 bytes; the file has 100"), std::string::npos) << e.what();
     }
+    // A .vdb of a few hundred bytes whose one active tile spans 4096^3 voxels: the estimate, not an allocation.
+    {
+        auto tile = openvdb::FloatGrid::create(0.f);
+        tile->setName("tile");
+        tile->tree().addTile(3, openvdb::Coord(0), 1.f, true);
+        volume::writeVdb(dir / "tile.vdb", {tile});
+        EXPECT_LT(std::filesystem::file_size(dir / "tile.vdb"), 1000u);
+        try {
+            volume::readVolume(dir / "tile.vdb");
+            FAIL() << "no error";
+        } catch (const ResourceError& e) {
+            EXPECT_NE(std::string(e.what()).find("tile.vdb: grid 'tile': 4096 x 4096 x 4096 voxels would need about "
+                                                 "262144 MiB"),
+                      std::string::npos)
+                << e.what();
+        }
+    }
     // Dense -> sparse (two slabs of 64 slices) -> dense: the same voxels, the same geometry.
     const auto grid = volume::toGrid(nrrd);
     EXPECT_LT(grid->activeVoxelCount(), nrrd.voxelCount());  // the background (0) is culled
@@ -529,11 +547,51 @@ TEST(Volumes, EveryCutOfEveryFormatIsAnErrorNotACrash) {
     EXPECT_EQ(reads + errors, 160u);  // and every flipped one either reads or is refused
 }
 
+TEST(Volumes, DicomLengthsAreCheckedBeforeGdcmReads) {
+    // A real slice (implicit VR little endian, pixel data 524,288 bytes at byte 2,420) edited as a fuzzer
+    // would: the pixel data's length claiming 1 GB, the file cut inside the meta group and inside the pixel
+    // data. Each is an IoError naming the file, the element
+    // and its byte offset, before GDCM allocates what the file claims or asserts on a cut.
+    const std::filesystem::path slice = vols() / "ct-abdomen-dicom/series/1-057.dcm";
+    std::string bytes(std::filesystem::file_size(slice), '\0');
+    std::ifstream(slice, std::ios::binary).read(bytes.data(), std::streamsize(bytes.size()));
+    const std::size_t pixels = bytes.find(std::string("\xe0\x7f\x10\x00", 4));
+    ASSERT_EQ(pixels, 2420u);
+    const auto dir = test::scratchDir("dicom-layout");
+    const auto expect = [&](const std::string& name, const std::string& file, const std::string& message) {
+        SCOPED_TRACE(name);
+        std::filesystem::remove_all(dir);
+        std::filesystem::create_directories(dir);
+        std::ofstream(dir / name, std::ios::binary).write(file.data(), std::streamsize(file.size()));
+        try {
+            volume::readVolume(dir);
+            ADD_FAILURE() << "no error";
+        } catch (const IoError& e) {
+            EXPECT_NE(std::string(e.what()).find((dir / name).string() + ": DICOM element " + message),
+                      std::string::npos)
+                << e.what();
+        }
+    };
+    std::string huge = bytes;
+    huge.replace(pixels + 4, 4, std::string("\x00\x00\x00\x40", 4));
+    expect("huge.dcm", huge, "(7FE0,0010) at byte 2420 claims 1073741824 bytes; its file has 524288 after");
+    expect("cut-pixels.dcm", bytes.substr(0, pixels + 1000), "(7FE0,0010) at byte 2420 claims 524288 bytes");
+    expect("cut-meta.dcm", bytes.substr(0, 150), "(0002,0001) at byte 144 is cut by the end of the file");
+    // The series itself passes: GDCM reads every slice (Volumes.DicomSeries reads it whole).
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    std::filesystem::copy_file(slice, dir / "1-057.dcm");
+    EXPECT_EQ(volume::readVolume(dir).dims[2], 1);
+}
+
 TEST(Volumes, FuzzFindingsAreErrorsNamingTheFile) {
     // Inputs the fuzzers (tests/fuzz_volume_readers.cpp, fuzz_dicom.cpp) found, kept in tests/data/fuzz/volume/
     // (a directory is a DICOM series): each must be an IoError that names the file (a bad file exits 1), and
     // nothing may crash or leak of ours on the way. dicom-meta-element-cut/ made GDCM abort the process on an
-    // assertion; GDCM reads in a helper program now (core/isolate.h).
+    // assertion; GDCM reads in a helper program now (core/isolate.h), and volume/dicom_layout.cpp reports a
+    // cut element or a claimed length past the file before GDCM reads. The dicom-*-gdcm-asserts-on/ series
+    // still make GDCM assert (in the helper: an IoError naming the directory); dicom-bits-stored-past-bits-
+    // allocated/ made GDCM assert in our own call for the voxel type.
     std::size_t n = 0;
     for (const auto& e : std::filesystem::directory_iterator(test::sourceDir() / "tests/data/fuzz/volume")) {
         ++n;

@@ -164,18 +164,21 @@ openvdb::FloatGrid::Ptr toGridNearLevel(const VolumeView& v, float level, bool i
     return grid;
 }
 
-DenseVolume toDense(const openvdb::FloatGrid& grid) {
+DenseVolume toDense(const openvdb::FloatGrid& grid, const std::filesystem::path& source) {
     const openvdb::CoordBBox box = grid.evalActiveVoxelBoundingBox();
     DenseVolume v;
     v.format = "VDB";
     v.storedType = "float32";
-    if (box.empty()) throw IoError("grid '" + grid.getName() + "' has no active voxels");
+    const std::string what = (source.empty() ? "" : source.string() + ": ") + "grid '" + grid.getName() + "'";
+    if (box.empty()) throw IoError(what + " has no active voxels");
     const openvdb::Coord d = box.dim();
     v.dims = {d.x(), d.y(), d.z()};
+    // A few bytes of active tiles can span 4096^3 voxels: refuse before allocating, with the estimate.
+    detail::checkVolumeSize(what, v.dims);
     v.values.resize(v.voxelCount());
     openvdb::tools::Dense<float, openvdb::tools::LayoutXYZ> dense(box, v.values.data());
     openvdb::tools::copyToDense(grid, dense);
-    if (!grid.transform().isLinear()) throw IoError("grid '" + grid.getName() + "' has a non-linear transform");
+    if (!grid.transform().isLinear()) throw IoError(what + " has a non-linear transform");
     const openvdb::Mat4d m = grid.transform().baseMap()->getAffineMap()->getMat4();
     for (int i = 0; i < 4; ++i)
         for (int j = 0; j < 4; ++j) v.indexToWorld[i][j] = m[i][j];
@@ -190,7 +193,7 @@ DenseVolume toDense(const openvdb::FloatGrid& grid) {
 namespace detail {
 DenseVolume readVdbVolume(const std::filesystem::path& path, const std::string& name) {
     auto grid = readFloatGrid(path, name.empty() ? std::nullopt : std::optional(name));
-    DenseVolume v = toDense(*grid);
+    DenseVolume v = toDense(*grid, path);
     return v;
 }
 }  // namespace detail

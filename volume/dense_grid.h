@@ -46,7 +46,9 @@ openvdb::FloatGrid::Ptr toGridNearLevel(const VolumeView& volume, float level, b
                                         std::pair<float, float>* range = nullptr);
 
 /// The dense volume of a grid's active bounding box (inactive voxels take the background).
-DenseVolume toDense(const openvdb::FloatGrid& grid);
+/// @throw ResourceError if it would not fit in half of this machine's memory (active tiles of a tiny file can
+///        span 4096^3 voxels), IoError if the grid has no active voxel; both name `source` when given.
+DenseVolume toDense(const openvdb::FloatGrid& grid, const std::filesystem::path& source = {});
 
 /// The index-to-world matrix as an OpenVDB transform (affine).
 openvdb::math::Transform::Ptr transformOf(const glm::dmat4& indexToWorld);

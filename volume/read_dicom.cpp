@@ -24,6 +24,7 @@
 #include "core/error.h"
 #include "core/isolate.h"
 #include "core/module.h"
+#include "volume/dicom_layout.h"
 #include "volume/readers.h"
 
 namespace isoforge::volume::detail {
@@ -40,29 +41,30 @@ std::string trimmed(const char* s) {
     return t;
 }
 
+// The voxel type from the pixel module's numbers. Not PixelFormat::GetScalarType(): it asserts (ending the
+// process, as Debian builds GDCM) on a bits stored past bits allocated and on other combinations a corrupt
+// file holds (fuzz_dicom found it). "" for what isoforge does not read.
 std::string scalarTypeName(const gdcm::PixelFormat& pf) {
-    switch (pf.GetScalarType()) {
-        case gdcm::PixelFormat::UINT8:
-            return "uint8";
-        case gdcm::PixelFormat::INT8:
-            return "int8";
-        case gdcm::PixelFormat::UINT12:
-        case gdcm::PixelFormat::UINT16:
-            return "uint16";
-        case gdcm::PixelFormat::INT12:
-        case gdcm::PixelFormat::INT16:
-            return "int16";
-        case gdcm::PixelFormat::UINT32:
-            return "uint32";
-        case gdcm::PixelFormat::INT32:
-            return "int32";
-        case gdcm::PixelFormat::FLOAT32:
-            return "float32";
-        case gdcm::PixelFormat::FLOAT64:
-            return "float64";
-        default:
-            return {};
+    const unsigned allocated = pf.GetBitsAllocated(), stored = pf.GetBitsStored();
+    const unsigned representation = pf.GetPixelRepresentation();
+    if (stored == 0 || stored > allocated) return {};
+    if (representation <= 1) {
+        const bool sign = representation == 1;
+        switch (allocated) {
+            case 8:
+                return sign ? "int8" : "uint8";
+            case 12:  // packed 12-bit pixels, unpacked to 16 bits
+            case 16:
+                return sign ? "int16" : "uint16";
+            case 32:
+                return sign ? "int32" : "uint32";
+            default:
+                return {};
+        }
     }
+    if (representation == 3 && allocated == 32) return "float32";  // GDCM's codes for floating-point pixels
+    if (representation == 4 && allocated == 64) return "float64";
+    return {};
 }
 
 }  // namespace
@@ -73,6 +75,7 @@ DenseVolume readDicomSeriesHere(const std::filesystem::path& dir, const std::str
     std::vector<std::string> files = d.GetFilenames();
     std::sort(files.begin(), files.end());
     if (files.empty()) throw IoError(dir.string() + ": the directory holds no files (expected a DICOM series)");
+    for (const std::string& f : files) checkDicomLayout(f);  // before GDCM asserts or allocates what they claim
 
     gdcm::Scanner scanner;
     for (const gdcm::Tag& t : {kSeriesUid, kModality, kSeriesDescription, kInstanceNumber, kOrientation, kPosition})
@@ -159,7 +162,10 @@ DenseVolume readDicomSeriesHere(const std::filesystem::path& dir, const std::str
         if (pf.GetSamplesPerPixel() != 1)
             throw IoError(f + ": " + std::to_string(pf.GetSamplesPerPixel()) + " samples per pixel; expected grey");
         const std::string type = scalarTypeName(pf);
-        if (type.empty()) throw IoError(f + ": unsupported pixel type");
+        if (type.empty())
+            throw IoError(f + ": unsupported pixel type (" + std::to_string(pf.GetBitsAllocated()) +
+                          " bits allocated, " + std::to_string(pf.GetBitsStored()) + " stored, pixel representation " +
+                          std::to_string(pf.GetPixelRepresentation()) + ")");
         if (img.GetNumberOfDimensions() == 3 && img.GetDimension(2) > 1)
             throw IoError(f + ": a multi-frame image; this reader takes series of single-frame slices");
         if (k == 0) {
@@ -281,16 +287,20 @@ DenseVolume deserializeVolume(const std::string& bytes, const std::string& what)
     return v;
 }
 
-DenseVolume readDicomSeries(const std::filesystem::path& dir, const std::string& wantedSeries) {
-    // GDCM (as Debian builds it) asserts on input it does not expect, which would end isoforge: it reads in
-    // a helper program (core/isolate.h), and the volume comes back as bytes. The helper's memory is bounded
-    // by what the files could justify: 64 times their bytes (decoded floats, the copy it sends, compressed
-    // pixel data) and 512 MiB for GDCM itself.
+std::uint64_t dicomMemoryLimit(const std::filesystem::path& dir) {
+    // What the files could justify: 64 times their bytes (decoded floats, the copy the helper sends,
+    // compressed pixel data), and 512 MiB for GDCM itself.
     std::uint64_t bytes = 0;
     std::error_code ec;
     for (const auto& e : std::filesystem::directory_iterator(dir, ec))
         if (e.is_regular_file(ec)) bytes += e.file_size(ec);
-    const std::uint64_t limit = (std::uint64_t(512) << 20) + 64 * bytes;
+    return (std::uint64_t(512) << 20) + 64 * bytes;
+}
+
+DenseVolume readDicomSeries(const std::filesystem::path& dir, const std::string& wantedSeries) {
+    // GDCM (as Debian builds it) asserts on input it does not expect, which would end isoforge: it reads in
+    // a helper program (core/isolate.h), and the volume comes back as bytes.
+    const std::uint64_t limit = dicomMemoryLimit(dir);
     const auto program = helperProgram("isoforge-dicom-reader", "it reads DICOM series");
     return deserializeVolume(
         runHelper(dir.string(), "GDCM", program, {dir.string(), wantedSeries, std::to_string(limit)}), dir.string());

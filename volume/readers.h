@@ -17,6 +17,8 @@ DenseVolume readMetaImage(const std::filesystem::path& path);
 DenseVolume readDicomSeries(const std::filesystem::path& dir, const std::string& series);
 /// What readDicomSeries runs in its helper program (volume/dicom_reader_main.cpp): GDCM in this process.
 DenseVolume readDicomSeriesHere(const std::filesystem::path& dir, const std::string& series);
+/// The memory the DICOM helper may use for the files of `dir` (its address-space limit).
+std::uint64_t dicomMemoryLimit(const std::filesystem::path& dir);
 /// A volume as bytes and back (the helper's answer).
 std::string serializeVolume(const DenseVolume& v);
 DenseVolume deserializeVolume(const std::string& bytes, const std::string& what);

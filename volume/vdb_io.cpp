@@ -79,7 +79,11 @@ openvdb::GridPtrVec readVdb(const std::filesystem::path& path) {
 }
 
 openvdb::FloatGrid::Ptr readFloatGrid(const std::filesystem::path& path, const std::optional<std::string>& name) {
-    openvdb::GridPtrVec grids = readVdb(path);
+    return pickFloatGrid(readVdb(path), path, name);
+}
+
+openvdb::FloatGrid::Ptr pickFloatGrid(const openvdb::GridPtrVec& grids, const std::filesystem::path& path,
+                                      const std::optional<std::string>& name) {
     openvdb::FloatGrid::Ptr pick;
     for (const auto& g : grids) {
         auto f = openvdb::gridPtrCast<openvdb::FloatGrid>(g);

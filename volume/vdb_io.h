@@ -21,6 +21,10 @@ openvdb::GridPtrVec readVdb(const std::filesystem::path& path);
 /// @throw IoError if there is no such grid, listing the grids the file holds and their types.
 openvdb::FloatGrid::Ptr readFloatGrid(const std::filesystem::path& path, const std::optional<std::string>& name = {});
 
+/// The grid readFloatGrid picks among grids read from `path` (named in its errors).
+openvdb::FloatGrid::Ptr pickFloatGrid(const openvdb::GridPtrVec& grids, const std::filesystem::path& path,
+                                      const std::optional<std::string>& name = {});
+
 /// Writes grids atomically (temporary file, then rename).
 /// @throw IoError on failure; no partial file is left.
 void writeVdb(const std::filesystem::path& path, const openvdb::GridCPtrVec& grids);
