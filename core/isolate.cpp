@@ -6,6 +6,7 @@
 #include <exception>
 #include <iostream>
 #include <new>
+#include <utility>
 
 #include <fcntl.h>
 #include <poll.h>
@@ -24,8 +25,11 @@ namespace isoforge {
 
 namespace {
 
-// The helper's answer on stdout: one byte for what it is, then the bytes of the result or the error's message.
+// The helper's answer on stdout: one byte for what it is, the length of what follows (8 bytes, little-endian),
+// then the bytes of the result or the error's message. The length lets runHelper read a volume straight into
+// a string of its size (no growing, no copy to drop the first byte: 50 MB for a CT series).
 constexpr char kResult = 'R', kIoError = 'I', kParseError = 'P', kResourceError = 'M', kOther = 'E';
+constexpr std::size_t kHeader = 9;
 
 bool writeAll(int fd, const char* data, std::size_t size) {
     while (size > 0) {
@@ -39,8 +43,55 @@ bool writeAll(int fd, const char* data, std::size_t size) {
 }
 
 int answer(char kind, const std::string& bytes) {
-    return writeAll(STDOUT_FILENO, &kind, 1) && writeAll(STDOUT_FILENO, bytes.data(), bytes.size()) ? 0 : 3;
+    char header[kHeader] = {kind};
+    for (std::size_t i = 0; i < 8; ++i) header[1 + i] = char((std::uint64_t(bytes.size()) >> (8 * i)) & 0xFF);
+    return writeAll(STDOUT_FILENO, header, kHeader) && writeAll(STDOUT_FILENO, bytes.data(), bytes.size()) ? 0 : 3;
 }
+
+// The answer as it arrives: the header, then the bytes straight into a string of the announced size.
+struct Reply {
+    char header[kHeader] = {};
+    std::size_t headerBytes = 0, bytes = 0;
+    std::string body;
+    bool tooLong = false;
+
+    char kind() const { return header[0]; }
+    bool complete() const { return headerBytes == kHeader && bytes == body.size() && !tooLong; }
+
+    /// Reads once from fd; false at the end of the stream (or an error).
+    bool readFrom(int fd) {
+        char scratch[4096];
+        char* to = scratch;
+        std::size_t room = sizeof scratch;
+        if (headerBytes < kHeader) {
+            to = header + headerBytes;
+            room = kHeader - headerBytes;
+        } else if (bytes < body.size()) {
+            to = body.data() + bytes;
+            room = body.size() - bytes;
+        }
+        const ssize_t n = ::read(fd, to, room);
+        if (n < 0 && errno == EINTR) return true;
+        if (n <= 0) return false;
+        if (headerBytes < kHeader) {
+            headerBytes += std::size_t(n);
+            if (headerBytes == kHeader) {
+                std::uint64_t size = 0;
+                for (std::size_t i = 0; i < 8; ++i)
+                    size |= std::uint64_t(static_cast<unsigned char>(header[1 + i])) << (8 * i);
+                if (size > (std::uint64_t(1) << 40))
+                    tooLong = true;
+                else
+                    body.resize(std::size_t(size));
+            }
+        } else if (to == scratch) {
+            tooLong = true;  // more than announced
+        } else {
+            bytes += std::size_t(n);
+        }
+        return true;
+    }
+};
 
 // The address space the process holds now (with a sanitizer, its shadow reservations too) plus `extra`.
 void limitAddressSpace(std::uint64_t extra) {
@@ -100,6 +151,9 @@ std::string runHelper(const std::string& what, const std::string& library, const
     Pipe out, err;
     if (::pipe2(out.fd, O_CLOEXEC) != 0 || ::pipe2(err.fd, O_CLOEXEC) != 0)
         throw ResourceError(what + ": cannot create a pipe: " + std::strerror(errno));
+    // A volume is tens of MB: 1 MiB at a time (the default unprivileged maximum) instead of 64 KiB, 16 times
+    // fewer switches between the two processes. Where it is refused, the default stays.
+    (void)::fcntl(out.fd[1], F_SETPIPE_SZ, 1 << 20);
     posix_spawn_file_actions_t actions;
     posix_spawn_file_actions_init(&actions);
     posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
@@ -119,9 +173,9 @@ std::string runHelper(const std::string& what, const std::string& library, const
     out.fd[1] = err.fd[1] = -1;
 
     // Both pipes drained together: a helper blocked on a full stderr pipe would never finish its answer.
-    std::string reply, messages;
+    Reply reply;
+    std::string messages;
     pollfd fds[2] = {{out.fd[0], POLLIN, 0}, {err.fd[0], POLLIN, 0}};
-    std::string* sinks[2] = {&reply, &messages};
     int open = 2;
     char buffer[1 << 16];
     while (open > 0) {
@@ -129,15 +183,18 @@ std::string runHelper(const std::string& what, const std::string& library, const
             if (errno == EINTR) continue;
             break;
         }
-        for (int i = 0; i < 2; ++i) {
-            if (fds[i].fd < 0 || !(fds[i].revents & (POLLIN | POLLHUP | POLLERR))) continue;
-            const ssize_t n = ::read(fds[i].fd, buffer, sizeof buffer);
+        if (fds[0].fd >= 0 && (fds[0].revents & (POLLIN | POLLHUP | POLLERR)) && !reply.readFrom(fds[0].fd)) {
+            fds[0].fd = -1;
+            --open;
+        }
+        if (fds[1].fd >= 0 && (fds[1].revents & (POLLIN | POLLHUP | POLLERR))) {
+            const ssize_t n = ::read(fds[1].fd, buffer, sizeof buffer);
             if (n < 0 && errno == EINTR) continue;
             if (n <= 0) {
-                fds[i].fd = -1;
+                fds[1].fd = -1;
                 --open;
             } else {
-                sinks[i]->append(buffer, std::size_t(n));
+                messages.append(buffer, std::size_t(n));
             }
         }
     }
@@ -155,7 +212,7 @@ std::string runHelper(const std::string& what, const std::string& library, const
                       (name ? name : "?") + "); the file is corrupt or of a kind " + library + " does not expect" +
                       (last.empty() ? "" : " (" + last + ")"));
     }
-    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0 || reply.empty()) {
+    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0 || !reply.complete()) {
         const std::size_t line = messages.find('\n');
         throw IoError(what + ": the process reading it with " + library + " (" + program.filename().string() +
                       ") ended without an answer" +
@@ -163,20 +220,19 @@ std::string runHelper(const std::string& what, const std::string& library, const
     }
     // Passed on with a result; with an error, the error says it (GDCM warns at length about every file of a
     // directory that is not DICOM).
-    const char kind = reply[0];
+    const char kind = reply.kind();
     if (!messages.empty() && kind == kResult) std::cerr << messages << std::flush;
-    reply.erase(0, 1);
     switch (kind) {
         case kResult:
-            return reply;
+            return std::move(reply.body);
         case kParseError:
-            throw ParseError(reply);
+            throw ParseError(reply.body);
         case kIoError:
-            throw IoError(reply);
+            throw IoError(reply.body);
         case kResourceError:
-            throw ResourceError(reply);
+            throw ResourceError(reply.body);
         default:
-            throw IoError(what + ": " + reply);
+            throw IoError(what + ": " + reply.body);
     }
 }
 

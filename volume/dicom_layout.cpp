@@ -96,8 +96,9 @@ public:
             const bool pixels = group == 0x7FE0 && element == 0x0010;
             const std::uint32_t length = !explicit_ ? number(4, 4) : wide ? number(8, 4) : number(6, 2);
             if (wide && length == kUndefined) {
-                // A sequence, UN holding one, or encapsulated pixel data: items up to a delimiter.
-                if (!sequence && !isVr(head_ + 4, "UN") && !pixels) return std::nullopt;
+                // A sequence or encapsulated pixel data: items up to a delimiter. (UN of undefined length holds
+                // implicit VR whatever the transfer syntax: left to GDCM.)
+                if (!sequence && !pixels) return std::nullopt;
                 const auto next = items(at + header, end, true, depth + 1, pixels);
                 if (!next) return std::nullopt;
                 at = *next;
