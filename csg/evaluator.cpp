@@ -140,6 +140,10 @@ FieldPtr Evaluator::carried(FieldPtr f, const std::vector<FieldPtr>& kids, const
     return f;
 }
 void Evaluator::carryParts(const FieldPtr& f, const std::vector<FieldPtr>& kids, bool difference) {
+    // An intersection or difference of one child is the child: it has its own parts, and making them from
+    // themselves would recurse without end (fuzz_scene found it).
+    for (const FieldPtr& k : kids)
+        if (k == f) return;
     if (!hasParts(kids)) return;
     withParts(f, [this, f, kids, difference]() -> std::optional<Parts> {
         std::vector<const Parts*> ps;

@@ -128,6 +128,13 @@ TEST(OpenScadHull, MinkowskiSumsOfConvexAndNonConvexObjects) {
         "minkowski() { intersection() { translate([-2, 0, 0]) cube(1); translate([2, 0, 0]) cube(1); } cube(); }",
         "n.isf");
     EXPECT_NEAR(null.root->value(glm::vec3(0.5f)), -0.5f, 1e-5f);
+    // A difference (or intersection) of one child is the child: its parts are the child's, not made from
+    // themselves (fuzz_scene: the sum asked for them and recursed until the stack overflowed).
+    for (const char* op : {"difference", "intersection"}) {
+        const auto one =
+            csg::parseScene(std::string("minkowski() { ") + op + "() { cube(2); } cube(1, center = true); }", "o.isf");
+        EXPECT_NEAR(one.root->value(glm::vec3(1.f)), -1.5f, 1e-5f) << op;
+    }
 }
 
 TEST(OpenScadHull, TwoDimensionalHullAndMinkowskiByClipper) {

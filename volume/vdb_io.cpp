@@ -10,13 +10,17 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "volume/vdb_compression_guard.h"
 #include "volume/vdb_layout.h"
 
 namespace isoforge::volume {
 
 void initializeOpenVdb() {
     static std::once_flag once;
-    std::call_once(once, [] { openvdb::initialize(); });
+    std::call_once(once, [] {
+        openvdb::initialize();
+        (void)detail::openVdbChunkReadersGuarded();  // links volume/vdb_compression_guard.cpp in
+    });
 }
 
 namespace {

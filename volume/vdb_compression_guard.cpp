@@ -1,0 +1,77 @@
+#include "volume/vdb_compression_guard.h"
+
+#include <cstdint>
+#include <istream>
+#include <string>
+
+#include <dlfcn.h>
+#include <openvdb/Exceptions.h>
+#include <openvdb/io/Compression.h>
+#include <openvdb/version.h>
+
+// OpenVDB 11 and later check the size first; the guard is for 10, whose names are spelled below.
+#if OPENVDB_LIBRARY_MAJOR_VERSION_NUMBER == 10
+#define ISOFORGE_GUARD_OPENVDB_CHUNKS 1
+
+namespace {
+
+using ChunkReader = void (*)(std::istream&, char*, std::size_t);
+
+// OpenVDB's own function of that name: the next definition after ours.
+ChunkReader original(const char* symbol) {
+    void* f = ::dlsym(RTLD_NEXT, symbol);
+    if (!f) OPENVDB_THROW(openvdb::RuntimeError, std::string("cannot find OpenVDB's ") + symbol);
+    return reinterpret_cast<ChunkReader>(f);
+}
+
+// A negative chunk size is an uncompressed chunk of that many bytes: it must be the buffer's size.
+void checkChunk(std::istream& is, std::size_t numBytes, const char* kind) {
+    const std::streampos at = is.tellg();
+    std::int64_t size = 0;
+    is.read(reinterpret_cast<char*>(&size), sizeof size);
+    if (!is.good())
+        OPENVDB_THROW(openvdb::RuntimeError, std::string("stream failure reading the size of a ") + kind + " chunk");
+    if (size <= 0 && std::uint64_t(-size) != numBytes)
+        OPENVDB_THROW(openvdb::RuntimeError,
+                      "expected an uncompressed chunk of " << numBytes << " bytes, the file says " << -size);
+    is.seekg(at);
+}
+
+}  // namespace
+
+namespace openvdb {
+OPENVDB_USE_VERSION_NAMESPACE
+namespace OPENVDB_VERSION_NAME {
+namespace io {
+
+__attribute__((visibility("default"))) void bloscFromStream(std::istream& is, char* data, std::size_t numBytes) {
+    static const ChunkReader next = original("_ZN7openvdb5v10_02io15bloscFromStreamERSiPcm");
+    checkChunk(is, numBytes, "blosc");
+    next(is, data, numBytes);
+}
+
+__attribute__((visibility("default"))) void unzipFromStream(std::istream& is, char* data, std::size_t numBytes) {
+    static const ChunkReader next = original("_ZN7openvdb5v10_02io15unzipFromStreamERSiPcm");
+    checkChunk(is, numBytes, "zip");
+    next(is, data, numBytes);
+}
+
+}  // namespace io
+}  // namespace OPENVDB_VERSION_NAME
+}  // namespace openvdb
+#endif
+
+namespace isoforge::volume::detail {
+
+bool openVdbChunkReadersGuarded() {
+#ifndef ISOFORGE_GUARD_OPENVDB_CHUNKS
+    return true;
+#else
+    // What the dynamic linker binds the name to for libopenvdb is what it finds first: ours, if exported.
+    void* found = ::dlsym(RTLD_DEFAULT, "_ZN7openvdb5v10_02io15bloscFromStreamERSiPcm");
+    return found == reinterpret_cast<void*>(static_cast<void (*)(std::istream&, char*, std::size_t)>(
+                        &openvdb::OPENVDB_VERSION_NAME::io::bloscFromStream));
+#endif
+}
+
+}  // namespace isoforge::volume::detail
