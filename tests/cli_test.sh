@@ -65,7 +65,7 @@ expect_exit 1 "non-VDB input" "$bin" mesh "$tmp/text.vdb" -o "$tmp/x.ply"
 # fuzz_vdb's finding: a voxel buffer claiming 64 GB is OpenVDB's bad_alloc, an IoError (tested here, in the
 # release build: under AddressSanitizer operator new cannot throw; tests/fuzz_vdb.cpp).
 expect_exit 1 "VDB claiming a 64 GB buffer" "$bin" info "$src/tests/data/fuzz/cli/vdb-blosc-chunk-of-64-gb.vdb"
-grep -q "vdb-blosc-chunk-of-64-gb.vdb: corrupt VDB file" "$tmp/err" && ok || bad "the 64 GB claim names the file"
+grep -q "vdb-blosc-chunk-of-64-gb.vdb: corrupt.*more than compression could make" "$tmp/err" && ok || bad "the 64 GB claim names the file"
 head -c 5000 "$src/data/sphere.vdb" >"$tmp/cut.vdb"
 expect_exit 1 "truncated VDB" "$bin" mesh "$tmp/cut.vdb" -o "$tmp/x.ply"
 expect_exit 1 "truncated VDB info" "$bin" info "$tmp/cut.vdb"

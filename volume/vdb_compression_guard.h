@@ -7,8 +7,9 @@
 /// buffer (fuzz_vdb found it; OpenVDB fixed it upstream in f02e7e1, 2023, "Fix for potential crash when
 /// reading invalid .vdb files", released in 11.0). isoforge defines both functions itself: libopenvdb calls
 /// them through its PLT, so these come first; each reads the chunk size, refuses an uncompressed one of the
-/// wrong size with OpenVDB's RuntimeError (an IoError naming the file, from readVdb), steps back and hands
-/// the stream to OpenVDB's own function (dlsym RTLD_NEXT).
+/// wrong size, and a compressed one larger than compression could make (which OpenVDB would allocate
+/// before reading), with OpenVDB's RuntimeError (an IoError naming the file, from readVdb), steps back and
+/// hands the stream to OpenVDB's own function (dlsym RTLD_NEXT).
 
 namespace isoforge::volume::detail {
 
