@@ -96,10 +96,15 @@ public:
             const bool pixels = group == 0x7FE0 && element == 0x0010;
             const std::uint32_t length = !explicit_ ? number(4, 4) : wide ? number(8, 4) : number(6, 2);
             if (wide && length == kUndefined) {
-                // A sequence or encapsulated pixel data: items up to a delimiter. (UN of undefined length holds
-                // implicit VR whatever the transfer syntax: left to GDCM.)
-                if (!sequence && !pixels) return std::nullopt;
+                // A sequence or encapsulated pixel data: items up to a delimiter. UN of undefined length is a
+                // sequence whose items are implicit VR little endian whatever the transfer syntax (PS3.5 6.2.2;
+                // what a converter writes for an implicit file's sequences it has no dictionary entry for).
+                const bool unknown = isVr(head_ + 4, "UN");
+                if (!sequence && !pixels && !unknown) return std::nullopt;
+                const bool wasExplicit = explicit_, wasBig = big_;
+                if (unknown) syntax(false, false);
                 const auto next = items(at + header, end, true, depth + 1, pixels);
+                syntax(wasExplicit, wasBig);
                 if (!next) return std::nullopt;
                 at = *next;
                 continue;
