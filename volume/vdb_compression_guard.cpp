@@ -37,9 +37,11 @@ void checkChunk(std::istream& is, std::size_t numBytes, const char* kind) {
     if (size > 0 && std::uint64_t(size) > numBytes + numBytes / 512 + 1024)
         OPENVDB_THROW(openvdb::RuntimeError, "a " << kind << " chunk of " << size << " bytes for " << numBytes
                                                   << " bytes of values: more than compression could make");
-    if (size <= 0 && std::uint64_t(-size) != numBytes)
+    // The uncompressed size, negated in unsigned arithmetic: -2^63 has no positive int64 (fuzz_vdb, UBSan).
+    const std::uint64_t uncompressed = std::uint64_t(0) - std::uint64_t(size);
+    if (size <= 0 && uncompressed != numBytes)
         OPENVDB_THROW(openvdb::RuntimeError,
-                      "expected an uncompressed chunk of " << numBytes << " bytes, the file says " << -size);
+                      "expected an uncompressed chunk of " << numBytes << " bytes, the file says " << uncompressed);
     is.seekg(at);
 }
 
