@@ -319,6 +319,12 @@ mesh::ConvexHull hullOfParts(const Parts& p) {
         all.insert(all.end(), part.points.begin(), part.points.end());
         for (const Polygon& poly : part.cover) all.insert(all.end(), poly.begin(), poly.end());
     }
+    // Cover polygons share their corners (a difference's pieces overlap): each point once, sorted
+    // (a hull's input order decides nothing but its time).
+    std::sort(all.begin(), all.end(), [](const glm::dvec3& a, const glm::dvec3& b) {
+        return a.x != b.x ? a.x < b.x : a.y != b.y ? a.y < b.y : a.z < b.z;
+    });
+    all.erase(std::unique(all.begin(), all.end()), all.end());
     return mesh::convexHull(all);
 }
 

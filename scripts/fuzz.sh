@@ -54,7 +54,8 @@ seed() { { printf "\\$(printf %03o "$1")"; cat; } > "$seeds/$2"; }  # a selector
 shared=../shared/data
 
 fuzz_scene() {
-  cp examples/*.isf tests/data/openscad/*.csg "$seeds"/ 2>/dev/null || true
+  # Its findings too (tests/data/fuzz/scene/): each run replays them under the per-input timeout.
+  cp examples/*.isf tests/data/openscad/*.csg tests/data/fuzz/scene/* "$seeds"/ 2>/dev/null || true
   # The .scad -> .csg path: OpenSCAD's exports of its own regression models (those the corpus test made).
   for f in build/openscad-corpus/*.csg build/openscad-corpus-fast/*.csg; do [ -f "$f" ] && cp "$f" "$seeds"/; done
   awk -v dir="$seeds" '/^```scad/ { n++; f = sprintf("%s/doc%02d.isf", dir, n); inside = 1; next }

@@ -29,7 +29,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         const openvdb::FloatGrid::Ptr grid = isoforge::volume::pickFloatGrid(grids, path);
         // A few active tiles make a dense volume of up to half the machine (toDense allows it): past 2^24
         // voxels the copy costs seconds and tests nothing new, so it is left out here.
-        if (grid->evalActiveVoxelBoundingBox().volume() <= (std::uint64_t(1) << 24)) {
+        const openvdb::Coord d = grid->evalActiveVoxelBoundingBox().dim();
+        if (double(d.x()) * d.y() * d.z() <= double(1 << 24)) {
             const isoforge::volume::DenseVolume v = isoforge::volume::toDense(*grid, path);
             if (v.values.size() != v.voxelCount()) __builtin_trap();
         }

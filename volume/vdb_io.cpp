@@ -1,5 +1,7 @@
 #include "volume/vdb_io.h"
 
+#include <cstdint>
+#include <cstdlib>
 #include <fstream>
 #include <mutex>
 #include <sstream>
@@ -48,6 +50,25 @@ void precheck(const std::filesystem::path& path) {
 
 namespace {
 
+// A file can place a tree's nodes anywhere in 32-bit coordinates, and a bounding box there (max - min + 1,
+// in OpenVDB's Coord and in our dense extents) overflows. Real grids are nowhere near: 2^29 voxels of
+// 0.1 mm is 54 km. Checked on the root's entries (children and tiles), which hold every other node.
+constexpr std::int64_t kMaxCoordinate = std::int64_t(1) << 29;
+
+void checkCoordinates(const openvdb::GridBase& grid, const std::filesystem::path& path) {
+    const auto rootEntries = [&](const auto& g) {
+        for (auto it = g.tree().root().cbeginChildAll(); it; ++it) {
+            const openvdb::Coord c = it.getCoord();
+            for (int i = 0; i < 3; ++i)
+                if (std::abs(std::int64_t(c[i])) > kMaxCoordinate)
+                    throw IoError(path.string() + ": corrupt VDB file: grid '" + grid.getName() + "' has a node at (" +
+                                  std::to_string(c.x()) + ", " + std::to_string(c.y()) + ", " + std::to_string(c.z()) +
+                                  "), more than 2^29 voxels from the origin");
+        }
+    };
+    grid.apply<openvdb::GridTypes>(rootEntries);
+}
+
 openvdb::GridPtrVec readGrids(const std::filesystem::path& path) {
     try {
         // Read through a stream over the whole file: no delayed loading, no memory mapping, so a
@@ -60,6 +81,7 @@ openvdb::GridPtrVec readGrids(const std::filesystem::path& path) {
         openvdb::io::Stream stream(in, /*delayLoad=*/false);
         openvdb::GridPtrVecPtr grids = stream.getGrids();
         if (!grids) throw IoError(path.string() + ": no grids");
+        for (const auto& g : *grids) checkCoordinates(*g, path);
         return *grids;
     } catch (const IoError&) {
         throw;
