@@ -34,6 +34,20 @@ namespace {
 const gdcm::Tag kSeriesUid(0x0020, 0x000e), kModality(0x0008, 0x0060), kSeriesDescription(0x0008, 0x103e),
     kInstanceNumber(0x0020, 0x0013), kOrientation(0x0020, 0x0037), kPosition(0x0020, 0x0032);
 
+/// GDCM's warnings and errors go to `to` while it lives, then back to stderr (also when GDCM throws).
+struct TraceTo {
+    explicit TraceTo(std::ostream& to) {
+        gdcm::Trace::SetWarningStream(to);
+        gdcm::Trace::SetErrorStream(to);
+    }
+    ~TraceTo() {
+        gdcm::Trace::SetWarningStream(std::cerr);
+        gdcm::Trace::SetErrorStream(std::cerr);
+    }
+    TraceTo(const TraceTo&) = delete;
+    TraceTo& operator=(const TraceTo&) = delete;
+};
+
 std::string trimmed(const char* s) {
     if (!s) return {};
     std::string t(s);
@@ -147,11 +161,11 @@ DenseVolume readDicomSeriesHere(const std::filesystem::path& dir, const std::str
         // GDCM reads a file whose pixel data is cut short with only a warning (and zeros for the rest):
         // listen to its warnings and refuse such a slice.
         std::ostringstream warnings;
-        gdcm::Trace::SetWarningStream(warnings);
-        gdcm::Trace::SetErrorStream(warnings);
-        const bool read = reader.Read();
-        gdcm::Trace::SetWarningStream(std::cerr);
-        gdcm::Trace::SetErrorStream(std::cerr);
+        bool read = false;
+        {
+            const TraceTo listen(warnings);
+            read = reader.Read();
+        }
         if (!read)
             throw IoError(f + ": GDCM cannot read the image (truncated or corrupt file, or an unsupported encoding)");
         if (warnings.str().find("Incomplete Pixel Data") != std::string::npos)
