@@ -57,13 +57,21 @@ public:
         return bool(in_.read(reinterpret_cast<char*>(head_), std::streamsize(n)));
     }
 
+    /// n bytes at `at` as a string; nothing past the end of the file.
+    std::optional<std::string> bytes(std::uint64_t at, std::uint32_t n) {
+        if (at > size_ || n > size_ - at) return std::nullopt;
+        std::string s(n, '\0');
+        in_.clear();
+        in_.seekg(std::streamoff(at));
+        if (!in_.read(s.data(), std::streamsize(n))) return std::nullopt;
+        return s;
+    }
+
     std::uint32_t number(std::size_t offset, int bytes) const {
         std::uint32_t v = 0;
         for (int i = 0; i < bytes; ++i) v = (v << 8) | head_[offset + std::size_t(big_ ? i : bytes - 1 - i)];
         return v;
     }
-
-    const unsigned char* head() const { return head_; }
 
     void syntax(bool explicitVr, bool big) {
         explicit_ = explicitVr;
@@ -74,6 +82,32 @@ public:
                            const std::string& what) const {
         throw IoError(file_.string() + ": DICOM element " + tagName(group, element) + " at byte " + std::to_string(at) +
                       " " + what);
+    }
+
+    struct Element {
+        std::uint32_t group = 0, element = 0, length = 0;
+        std::uint64_t header = 8;  ///< bytes of tag, VR and length
+        bool wide = false;         ///< explicit VR with a 32-bit length
+    };
+    /// The element whose header read() put in head_, `left` bytes before the end of its container; nothing
+    /// when the VR of an explicit VR element is not two capitals (not understood here).
+    std::optional<Element> header(std::uint64_t at, std::uint64_t left, const char* container) const {
+        Element e;
+        e.group = number(0, 2);
+        e.element = number(2, 2);
+        e.wide = explicit_ && longLength(head_ + 4);
+        e.header = e.wide ? 12 : 8;
+        if (left < e.header) fail(e.group, e.element, at, std::string("is cut by the end of its ") + container);
+        if (explicit_ && (!upper(head_[4]) || !upper(head_[5]))) return std::nullopt;
+        e.length = !explicit_ ? number(4, 4) : e.wide ? number(8, 4) : number(6, 2);
+        return e;
+    }
+    /// Fails unless the element's value fits in the `left` bytes of its container.
+    void fits(const Element& e, std::uint64_t at, std::uint64_t left, const char* container) const {
+        if (e.length > left - e.header)
+            fail(e.group, e.element, at,
+                 "claims " + std::to_string(e.length) + " bytes; its " + container + " has " +
+                     std::to_string(left - e.header) + " after the element's header");
     }
 
     /// Data elements from `at` to `end`, or to an item delimiter when `delimited`; returns where they end.
@@ -88,14 +122,11 @@ public:
                 if (!delimited || element != 0xE00D || end - at < 8) return std::nullopt;
                 return at + 8;
             }
-            const bool wide = explicit_ && longLength(head_ + 4);
-            const std::uint64_t header = wide ? 12 : 8;
-            if (end - at < header) fail(group, element, at, std::string("is cut by the end of its ") + container);
-            if (explicit_ && (!upper(head_[4]) || !upper(head_[5]))) return std::nullopt;
+            const auto e = header(at, end - at, container);
+            if (!e) return std::nullopt;
             const bool sequence = explicit_ && isVr(head_ + 4, "SQ");
             const bool pixels = group == 0x7FE0 && element == 0x0010;
-            const std::uint32_t length = !explicit_ ? number(4, 4) : wide ? number(8, 4) : number(6, 2);
-            if (wide && length == kUndefined) {
+            if (e->wide && e->length == kUndefined) {
                 // A sequence or encapsulated pixel data: items up to a delimiter. UN of undefined length is a
                 // sequence whose items are implicit VR little endian whatever the transfer syntax (PS3.5 6.2.2;
                 // what a converter writes for an implicit file's sequences it has no dictionary entry for).
@@ -103,25 +134,22 @@ public:
                 if (!sequence && !pixels && !unknown) return std::nullopt;
                 const bool wasExplicit = explicit_, wasBig = big_;
                 if (unknown) syntax(false, false);
-                const auto next = items(at + header, end, true, depth + 1, pixels);
+                const auto next = items(at + e->header, end, true, depth + 1, pixels);
                 syntax(wasExplicit, wasBig);
                 if (!next) return std::nullopt;
                 at = *next;
                 continue;
             }
-            if (!explicit_ && length == kUndefined) {  // implicit VR: a sequence
-                const auto next = items(at + header, end, true, depth + 1, false);
+            if (!explicit_ && e->length == kUndefined) {  // implicit VR: a sequence
+                const auto next = items(at + e->header, end, true, depth + 1, false);
                 if (!next) return std::nullopt;
                 at = *next;
                 continue;
             }
-            if (length > end - at - header)
-                fail(group, element, at,
-                     "claims " + std::to_string(length) + " bytes; its " + container + " has " +
-                         std::to_string(end - at - header) + " after the element's header");
+            fits(*e, at, end - at, container);
             // A defined-length sequence: its items are checked; one not understood ends there, not here.
-            if (sequence) (void)items(at + header, at + header + length, false, depth + 1, false);
-            at += header + length;
+            if (sequence) (void)items(at + e->header, at + e->header + e->length, false, depth + 1, false);
+            at += e->header + e->length;
         }
         if (delimited) return std::nullopt;  // no delimiter before the end: GDCM's to judge
         return at;
@@ -165,7 +193,7 @@ private:
 
 void checkDicomLayout(const std::filesystem::path& file) {
     Walk w(file);
-    if (w.size() < 132 || !w.read(128, 4) || std::string(w.head(), w.head() + 4) != "DICM") return;
+    if (w.size() < 132 || w.bytes(128, 4) != "DICM") return;
     // The file meta group: explicit VR little endian. GDCM reads as far as the group length (0002,0000) says,
     // whatever the groups it meets on the way.
     std::uint64_t at = 132, groupEnd = 0;
@@ -176,29 +204,19 @@ void checkDicomLayout(const std::filesystem::path& file) {
         const std::uint32_t group = left >= 2 ? w.number(0, 2) : 0, element = left >= 4 ? w.number(2, 2) : 0;
         if (group != 0x0002 && at >= groupEnd) break;  // the data set begins
         if (left < 8) w.fail(group, element, at, "is cut by the end of the file");
-        if (!upper(w.head()[4]) || !upper(w.head()[5])) return;  // not explicit VR: GDCM has ways with old files
-        const bool wide = longLength(w.head() + 4);
-        const std::uint64_t header = wide ? 12 : 8;
-        if (left < header) w.fail(group, element, at, "is cut by the end of the file");
-        const std::uint32_t length = wide ? w.number(8, 4) : w.number(6, 2);
-        if (wide && length == kUndefined) return;  // undefined length in the meta group: GDCM's to read
-        if (length > left - header)
-            w.fail(group, element, at,
-                   "claims " + std::to_string(length) + " bytes; the file has " + std::to_string(left - header) +
-                       " after the element's header");
-        if (group == 0x0002 && element == 0x0000 && length == 4 && !wide && w.read(at + 8, 4))
+        const auto e = w.header(at, left, "file");
+        if (!e) return;                                  // not explicit VR: GDCM has ways with old files
+        if (e->wide && e->length == kUndefined) return;  // undefined length in the meta group: GDCM's to read
+        w.fits(*e, at, left, "file");
+        if (group == 0x0002 && element == 0x0000 && e->length == 4 && !e->wide && w.read(at + 8, 4))
             groupEnd = at + 12 + w.number(0, 4);
-        if (group == 0x0002 && element == 0x0010 && length <= 64) {  // the transfer syntax UID
-            std::string uid(length, '\0');
-            for (std::uint32_t i = 0; i < length; i += 4) {
-                const std::uint32_t n = std::min<std::uint32_t>(4, length - i);
-                if (!w.read(at + header + i, n)) return;
-                std::copy(w.head(), w.head() + n, uid.begin() + i);
-            }
-            while (!uid.empty() && (uid.back() == '\0' || uid.back() == ' ')) uid.pop_back();
-            syntax = uid;
+        if (group == 0x0002 && element == 0x0010 && e->length <= 64) {  // the transfer syntax UID
+            auto uid = w.bytes(at + e->header, e->length);
+            if (!uid) return;
+            while (!uid->empty() && (uid->back() == '\0' || uid->back() == ' ')) uid->pop_back();
+            syntax = *uid;
         }
-        at += header + length;
+        at += e->header + e->length;
     }
     if (syntax == "1.2.840.10008.1.2.1.99") return;  // deflated: GDCM inflates it
     w.syntax(syntax != "1.2.840.10008.1.2", syntax == "1.2.840.10008.1.2.2");
