@@ -45,10 +45,14 @@ add_library(isoforge_medical_formats INTERFACE)
 add_library(isoforge::medical_formats ALIAS isoforge_medical_formats)
 # nifti2_io.h includes <znzlib.h> from its own directory; teem's headers live in /usr/include/teem, which
 # is included as <teem/nrrd.h> (adding /usr/include itself as a system directory breaks #include_next).
-target_include_directories(isoforge_medical_formats SYSTEM INTERFACE ${NIFTI_INCLUDE_DIR} ${GDCM_INCLUDE_DIR})
+target_include_directories(isoforge_medical_formats SYSTEM INTERFACE ${NIFTI_INCLUDE_DIR})
 target_compile_definitions(isoforge_medical_formats INTERFACE HAVE_ZLIB)
-target_link_libraries(isoforge_medical_formats INTERFACE ${NIFTI2_LIBRARY} ${ZNZ_LIBRARY} ${GDCM_LIBRARIES}
-                                                         ${TEEM_LIBRARY} ZLIB::ZLIB)
+target_link_libraries(isoforge_medical_formats INTERFACE ${NIFTI2_LIBRARY} ${ZNZ_LIBRARY} ${TEEM_LIBRARY} ZLIB::ZLIB)
+# GDCM apart: only the DICOM helper program links it (volume/CMakeLists.txt), not isoforge.
+add_library(isoforge_gdcm INTERFACE)
+add_library(isoforge::gdcm ALIAS isoforge_gdcm)
+target_include_directories(isoforge_gdcm SYSTEM INTERFACE ${GDCM_INCLUDE_DIR})
+target_link_libraries(isoforge_gdcm INTERFACE ${GDCM_LIBRARIES})
 
 if(ISOFORGE_BUILD_TESTS)
   find_package(GTest REQUIRED)                        # GTest::gtest_main
