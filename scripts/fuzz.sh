@@ -45,6 +45,9 @@ run() {  # target max_len [seconds]: bounded total time (or FUZZ_RUNS), input le
     contained=$(( ${contained:-0} + $(sed -n 's/^fuzz_[a-z_]*: \([0-9]*\) .*(contained.*/\1/p' <<< "$out" | tail -1 | grep . || echo 0) ))
     if [ -z "${batch:-}" ] || [ "$status" -ne 0 ] || { [ -n "${FUZZ_RUNS:-}" ] && [ "$total" -ge "$FUZZ_RUNS" ]; } ||
        { [ -z "${FUZZ_RUNS:-}" ] && [ $(( SECONDS - start )) -ge "$seconds" ]; }; then
+      # A failure's whole report (the stacks above libFuzzer's last lines) is kept beside the artifacts.
+      [ "$status" -ne 0 ] && printf '%s\n' "$out" > "build-fuzz/fuzz_$1-failure.log" &&
+        echo "(whole output: build-fuzz/fuzz_$1-failure.log)"
       tail -12 <<< "$out"
       break
     fi

@@ -3,11 +3,15 @@
 #include <cstdint>
 #include <cstdlib>
 #include <fstream>
+#include <memory>
 #include <mutex>
 #include <sstream>
 
+#include <openvdb/io/Archive.h>
 #include <openvdb/io/File.h>
+#include <openvdb/io/GridDescriptor.h>
 #include <openvdb/io/Stream.h>
+#include <openvdb/io/io.h>
 #include <openvdb/tools/Count.h>
 
 #include "core/atomic_file.h"
@@ -69,20 +73,56 @@ void checkCoordinates(const openvdb::GridBase& grid, const std::filesystem::path
     grid.apply<openvdb::GridTypes>(rootEntries);
 }
 
+/// io::Stream's reading (without delayed loading), grid by grid through Archive's protected steps, so that
+/// each grid's header is checked where the stream stands before OpenVDB reads it: in a file without grid
+/// offsets, a grid name of 2 GB after the first grid's tree was a 2 GB string (fuzz_vdb).
+class CheckedStream : public openvdb::io::Archive {
+public:
+    openvdb::GridPtrVec read(std::istream& is, const detail::VdbLayout& layout, std::uint64_t fileSize,
+                             const std::filesystem::path& path) {
+        readHeader(is);
+        auto streamMetadata = std::make_shared<openvdb::io::StreamMetadata>();
+        openvdb::io::setStreamMetadataPtr(is, streamMetadata, /*transfer=*/false);
+        openvdb::io::setVersion(is, libraryVersion(), fileVersion());
+        openvdb::io::setDataCompression(is, compression());
+        openvdb::MetaMap fileMetadata;
+        fileMetadata.readMeta(is);
+        const std::int32_t count = readGridCount(is);
+        openvdb::GridPtrVec grids;
+        std::vector<openvdb::io::GridDescriptor> descriptors;
+        NamedGridMap named;
+        for (std::int32_t i = 0; i < count; ++i) {
+            detail::checkGridHeader(is, std::uint64_t(is.tellg()), layout, fileSize, path);
+            openvdb::io::GridDescriptor gd;
+            gd.read(is);
+            if (!openvdb::GridBase::isRegistered(gd.gridType()))
+                throw IoError(path.string() + ": grid '" + gd.uniqueName() + "' is of an unknown type, '" +
+                              gd.gridType() + "'");
+            openvdb::GridBase::Ptr grid = openvdb::GridBase::createGrid(gd.gridType());
+            grid->setSaveFloatAsHalf(gd.saveFloatAsHalf());
+            Archive::readGrid(grid, gd, is);
+            grids.push_back(grid);
+            descriptors.push_back(gd);
+            named[gd.uniqueName()] = grid;
+        }
+        for (const openvdb::io::GridDescriptor& gd : descriptors) connectInstance(gd, named);  // shared trees
+        return grids;
+    }
+};
+
 openvdb::GridPtrVec readGrids(const std::filesystem::path& path) {
     try {
         // Read through a stream over the whole file: no delayed loading, no memory mapping, so a
         // truncated file fails here, in the reader, and not later while meshing.
         std::ifstream in(path, std::ios::binary);
-        detail::checkVdbLayout(in, std::filesystem::file_size(path), path);
+        const std::uint64_t fileSize = std::filesystem::file_size(path);
+        const detail::VdbLayout layout = detail::checkVdbLayout(in, fileSize, path);
         // OpenVDB does not check its stream; make a short read throw at once, rather than letting
         // it parse zeros (which, besides giving garbage, leaks nodes inside OpenVDB).
         in.exceptions(std::ios::failbit | std::ios::badbit);
-        openvdb::io::Stream stream(in, /*delayLoad=*/false);
-        openvdb::GridPtrVecPtr grids = stream.getGrids();
-        if (!grids) throw IoError(path.string() + ": no grids");
-        for (const auto& g : *grids) checkCoordinates(*g, path);
-        return *grids;
+        const openvdb::GridPtrVec grids = CheckedStream().read(in, layout, fileSize, path);
+        for (const auto& g : grids) checkCoordinates(*g, path);
+        return grids;
     } catch (const IoError&) {
         throw;
     } catch (const std::ios_base::failure&) {

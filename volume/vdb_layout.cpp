@@ -130,9 +130,31 @@ void metaMap(Walker& w, const std::string& what) {
     }
 }
 
+/// One grid's descriptor, compression flags, metadata and transform name at the walker's position; false
+/// when the file does not place the grid (no offsets), so that where the next one starts is known only
+/// once OpenVDB has read this grid's tree.
+bool gridHeader(Walker& w, std::uint32_t version, bool offsets, std::uint64_t fileSize) {
+    const std::string name = w.string("grid name");
+    w.string("grid type of '" + name + "'");
+    if (version >= 216) w.string("instance parent of '" + name + "'");
+    const auto gridPos = w.get<std::int64_t>("grid position"), blockPos = w.get<std::int64_t>("block position"),
+               endPos = w.get<std::int64_t>("end position");
+    // OpenVDB's stream reader reads each grid right after its descriptor, where a file with offsets says
+    // it is; the next descriptor follows the grid's tree, which only such a file locates (its end).
+    const bool placed = offsets && gridPos > 0;
+    if (placed && !(std::uint64_t(gridPos) == w.at() && blockPos >= gridPos && endPos >= blockPos &&
+                    std::uint64_t(endPos) <= fileSize))
+        w.fail("grid '" + name + "' has offsets that disagree with the file", w.at() - 24);
+    if (version >= 222) w.get<std::uint32_t>("compression flags of '" + name + "'");
+    metaMap(w, "metadata of grid '" + name + "'");
+    w.string("transform type of '" + name + "'");
+    if (placed) w.seek(std::uint64_t(endPos));
+    return placed;
+}
+
 }  // namespace
 
-void checkVdbLayout(std::istream& in, std::uint64_t fileSize, const std::filesystem::path& path) {
+VdbLayout checkVdbLayout(std::istream& in, std::uint64_t fileSize, const std::filesystem::path& path) {
     Walker w(in, fileSize, path);
     w.seek(0);
     w.get<std::int64_t>("the magic number");
@@ -143,8 +165,9 @@ void checkVdbLayout(std::istream& in, std::uint64_t fileSize, const std::filesys
     } else {
         w.skip(8, "the library version");
     }
-    bool offsets = true;
-    if (version >= 212) offsets = w.get<char>("the grid-offsets flag") != 0;
+    VdbLayout layout;
+    layout.version = version;
+    if (version >= 212) layout.offsets = w.get<char>("the grid-offsets flag") != 0;
     if (version >= 220 && version < 222) w.skip(1, "the compression flag");
     w.skip(version >= 218 ? 36 : 16, "the file's UUID");
     metaMap(w, "file metadata");
@@ -154,26 +177,20 @@ void checkVdbLayout(std::istream& in, std::uint64_t fileSize, const std::filesys
     // A descriptor alone is three string lengths and three 64-bit offsets.
     if (grids < 0 || std::uint64_t(grids) * 36 > w.left())
         w.fail("the file claims " + std::to_string(grids) + " grids", countAt);
-    for (std::int32_t g = 0; g < grids; ++g) {
-        const std::string name = w.string("grid name");
-        w.string("grid type of '" + name + "'");
-        if (version >= 216) w.string("instance parent of '" + name + "'");
-        const auto gridPos = w.get<std::int64_t>("grid position"), blockPos = w.get<std::int64_t>("block position"),
-                   endPos = w.get<std::int64_t>("end position");
-        // OpenVDB's stream reader reads each grid right after its descriptor, where a file with offsets says
-        // it is; the next descriptor follows the grid's tree, which only such a file locates (its end).
-        const bool placed = offsets && gridPos > 0;
-        if (placed && !(std::uint64_t(gridPos) == w.at() && blockPos >= gridPos && endPos >= blockPos &&
-                        std::uint64_t(endPos) <= fileSize))
-            w.fail("grid '" + name + "' has offsets that disagree with the file", w.at() - 24);
-        if (version >= 222) w.get<std::uint32_t>("compression flags of '" + name + "'");
-        metaMap(w, "metadata of grid '" + name + "'");
-        w.string("transform type of '" + name + "'");
-        if (!placed) break;
-        w.seek(std::uint64_t(endPos));
-    }
+    for (std::int32_t g = 0; g < grids; ++g)
+        if (!gridHeader(w, version, layout.offsets, fileSize)) break;
     in.clear();
     in.seekg(0);
+    return layout;
+}
+
+void checkGridHeader(std::istream& in, std::uint64_t at, const VdbLayout& layout, std::uint64_t fileSize,
+                     const std::filesystem::path& path) {
+    Walker w(in, fileSize, path);
+    w.seek(at);
+    gridHeader(w, layout.version, layout.offsets, fileSize);
+    in.clear();
+    in.seekg(std::streamoff(at));
 }
 
 }  // namespace isoforge::volume::detail
