@@ -199,6 +199,19 @@ DenseVolume readDicomSeriesHere(const std::filesystem::path& dir, const std::str
                           " pixels, but the series' slices are " + std::to_string(v.dims[0]) + " x " +
                           std::to_string(v.dims[1]));
         }
+        // GDCM 3.0.21 (Debian 12's) copies a native slice's pixels by the image's size, not the data's, when
+        // it swaps bytes or unpacks 12 bits (RAWCodec::DecodeBytes): it read past the end of a short pixel
+        // data element (fuzz_dicom, AddressSanitizer; TALOS-2024-1944, fixed in GDCM 3.0.24). A native pixel
+        // data element must hold the whole image before GDCM decodes it.
+        if (const gdcm::ByteValue* bv = img.GetDataElement().GetByteValue()) {
+            const std::uint64_t need =
+                (std::uint64_t(w) * std::uint64_t(h) * pf.GetSamplesPerPixel() * pf.GetBitsAllocated() + 7) / 8;
+            if (bv->GetLength() < need)
+                throw IoError(f + ": the pixel data holds " + std::to_string(bv->GetLength()) + " bytes; " +
+                              std::to_string(w) + " x " + std::to_string(h) + " pixels of " +
+                              std::to_string(pf.GetBitsAllocated()) + " bits need " + std::to_string(need) +
+                              " (truncated file?)");
+        }
         std::vector<char> buffer(img.GetBufferLength());
         const std::size_t pixels = std::size_t(w) * std::size_t(h);
         if (buffer.size() < pixels * typeSize(type) || !img.GetBuffer(buffer.data()))
