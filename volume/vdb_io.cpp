@@ -1,5 +1,6 @@
 #include "volume/vdb_io.h"
 
+#include <cmath>
 #include <cstdint>
 #include <cstdlib>
 #include <fstream>
@@ -73,6 +74,21 @@ void checkCoordinates(const openvdb::GridBase& grid, const std::filesystem::path
     grid.apply<openvdb::GridTypes>(rootEntries);
 }
 
+// A linear transform must be invertible as OpenVDB inverts it: AffineMap refuses a determinant within
+// 3e-15 of zero by throwing ArithmeticError from wherever the map is next turned affine (fuzz_vdb: a scale
+// of zero read from the file reached toDense as an "internal error").
+void checkTransform(const openvdb::GridBase& grid, const std::filesystem::path& path) {
+    const openvdb::math::MapBase::ConstPtr map = grid.transform().baseMap();
+    if (!map->isLinear()) return;  // frustum maps: refused where a linear one is needed
+    const double det = map->determinant();
+    if (!std::isfinite(det) || std::abs(det) <= 3.0 * openvdb::math::Tolerance<double>::value()) {
+        std::ostringstream what;
+        what << path.string() << ": corrupt VDB file: grid '" << grid.getName()
+             << "' has a transform that cannot be inverted (" << map->type() << ", determinant " << det << ")";
+        throw IoError(what.str());
+    }
+}
+
 /// io::Stream's reading (without delayed loading), grid by grid through Archive's protected steps, so that
 /// each grid's header is checked where the stream stands before OpenVDB reads it: in a file without grid
 /// offsets, a grid name of 2 GB after the first grid's tree was a 2 GB string (fuzz_vdb).
@@ -121,7 +137,10 @@ openvdb::GridPtrVec readGrids(const std::filesystem::path& path) {
         // it parse zeros (which, besides giving garbage, leaks nodes inside OpenVDB).
         in.exceptions(std::ios::failbit | std::ios::badbit);
         const openvdb::GridPtrVec grids = CheckedStream().read(in, layout, fileSize, path);
-        for (const auto& g : grids) checkCoordinates(*g, path);
+        for (const auto& g : grids) {
+            checkCoordinates(*g, path);
+            checkTransform(*g, path);
+        }
         return grids;
     } catch (const IoError&) {
         throw;
