@@ -41,6 +41,8 @@ run() {  # target max_len [seconds]: bounded total time (or FUZZ_RUNS), input le
     out=$(build-fuzz/fuzz_$1 "$PWD/$seeds" $limit -max_len="$2" -timeout=10 -rss_limit_mb=2048 ${flags:-} \
         -print_final_stats=1 -artifact_prefix="${artifacts:-$PWD/build-fuzz/}" 2>&1) || status=$?
     total=$(( total + $(sed -n 's/^stat::number_of_executed_units: *//p' <<< "$out" | tail -1 | grep . || echo 0) ))
+    # A line per process, so that a long run stopped early still says how far it got.
+    [ -n "${batch:-}" ] && echo "fuzz_$1: $total inputs in $(( SECONDS - start )) s so far"
     # A target may count what it contains ("fuzz_X: N ... (contained ...)": GDCM's assertions).
     contained=$(( ${contained:-0} + $(sed -n 's/^fuzz_[a-z_]*: \([0-9]*\) .*(contained.*/\1/p' <<< "$out" | tail -1 | grep . || echo 0) ))
     if [ -z "${batch:-}" ] || [ "$status" -ne 0 ] || { [ -n "${FUZZ_RUNS:-}" ] && [ "$total" -ge "$FUZZ_RUNS" ]; } ||
