@@ -23,7 +23,6 @@ using Polygon = std::vector<glm::dvec3>;
 /// Past these a hostile or absurd model is refused rather than left to run for minutes: point
 /// sums of one pair of convex parts (two 96-sided spheres make 21 million), and the polygons
 /// covering a difference (each subtracted part can split a polygon into one piece per face).
-constexpr std::size_t kMaxMinkowskiSums = 25'000'000;
 constexpr std::size_t kMaxCoverPieces = 500'000;
 
 /// OpenSCAD's generate_circle: `n` points of radius r, the first on +x, at its exact degree trigonometry.
@@ -154,10 +153,10 @@ void subtract(std::vector<Polygon>& pieces, const Convex& b, double eps) {
 }
 
 std::vector<glm::dvec3> sums(const std::vector<glm::dvec3>& a, const std::vector<glm::dvec3>& b) {
-    if (double(a.size()) * double(b.size()) > kMaxMinkowskiSums)
+    if (double(a.size()) * double(b.size()) > double(maxMinkowskiSums()))
         throw std::invalid_argument("minkowski() of parts of " + std::to_string(a.size()) + " and " +
                                     std::to_string(b.size()) + " vertices: more than " +
-                                    std::to_string(kMaxMinkowskiSums) + " sums (use fewer facets: $fn)");
+                                    std::to_string(maxMinkowskiSums()) + " sums (use fewer facets: $fn)");
     std::vector<glm::dvec3> s;
     s.reserve(a.size() * b.size());
     for (const glm::dvec3& p : a)
@@ -312,6 +311,11 @@ std::optional<Parts> intersectionParts(const std::vector<const Parts*>& kids) {
         acc = std::move(next);
     }
     return acc;
+}
+
+std::size_t& maxMinkowskiSums() {
+    static std::size_t limit = 25'000'000;
+    return limit;
 }
 
 mesh::ConvexHull hullOfParts(const Parts& p) {

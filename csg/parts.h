@@ -60,8 +60,12 @@ std::optional<Parts> intersectionParts(const std::vector<const Parts*>& kids);
 mesh::ConvexHull hullOfParts(const Parts& p);
 /// minkowski() of two objects, pair of parts by pair of parts (see the file comment).
 /// @throw std::invalid_argument for two parts that are both not convex, past `maxHulls` hulls, or
-/// past 25 million point sums of two convex parts.
+/// past maxMinkowskiSums() point sums of two convex parts.
 Parts minkowskiParts(const Parts& a, const Parts& b, std::size_t maxHulls = 200000);
+/// Point sums of two convex parts past which minkowski() is refused: 25 million. The scene fuzzer lowers
+/// it at start-up (a mutated $fn or a fourth child multiplies the sums; 10^5 of them hulled take seconds
+/// under ASan), as it lowers maxExtrusionTriangles().
+std::size_t& maxMinkowskiSums();
 
 /// The solid of the parts: convex polytopes and the parts' own fields, united; nullptr when no
 /// part has a volume.

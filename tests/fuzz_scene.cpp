@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include "core/error.h"
+#include "csg/parts.h"
 #include "csg/profile.h"
 #include "csg/scene.h"
 
@@ -24,6 +25,9 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
     // OpenSCAD's sliced extrusions cost their slice count, which one mutated digit multiplies: keep each
     // under 20,000 wall triangles (tests/data/openscad/extrude.csg has 2,400), past that the continuous twist.
     isoforge::csg::maxExtrusionTriangles() = 20000;
+    // Minkowski sums the same way: a mutated $fn or a fourth child made 10^5-point hulls of 3 s each under
+    // ASan, and the corpus drifted to them (22 inputs a second). The full limit is tested in test_openscad_hull.
+    isoforge::csg::maxMinkowskiSums() = 20000;
     return 0;
 }
 

@@ -206,6 +206,13 @@ TEST(OpenScadHull, AbsurdSumsAreRefusedBeforeTheWork) {
             EXPECT_NE(std::string(e.what()).find("more than"), std::string::npos) << e.what();
         }
     }
+    // The scene fuzzer lowers the bound on point sums (tests/fuzz_scene.cpp): the same refusal, sooner.
+    const std::string small = "minkowski() { sphere(1, $fn = 64); cube(1); }";  // 2,048 x 8 sums
+    const std::size_t was = csg::maxMinkowskiSums();
+    csg::maxMinkowskiSums() = 1000;
+    EXPECT_ANY_THROW(csg::parseScene(small, "b.isf"));
+    csg::maxMinkowskiSums() = was;
+    EXPECT_NO_THROW(csg::parseScene(small, "b.isf"));
 }
 
 TEST(OpenScadSurface, HeightMapsAreClosedSolidsAsOpenScadBuildsThem) {
