@@ -20,18 +20,17 @@
 /// target in fresh processes of a few thousand inputs, with leak detection off.
 /// Build: cmake -DISOFORGE_FUZZ=ON with clang (see scripts/fuzz.sh).
 #include <algorithm>
+#include <csetjmp>
 #include <cstddef>
 #include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <iostream>
 #include <limits>
 #include <new>
 #include <string>
-
-#include <csetjmp>
-#include <cstdio>
-#include <cstdlib>
-#include <cstring>
 
 #include <dlfcn.h>
 #include <gdcmTrace.h>

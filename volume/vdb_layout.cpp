@@ -130,10 +130,8 @@ void metaMap(Walker& w, const std::string& what) {
     }
 }
 
-/// One grid's descriptor, compression flags, metadata and transform name at the walker's position; false
-/// when the file does not place the grid (no offsets), so that where the next one starts is known only
-/// once OpenVDB has read this grid's tree.
-bool gridHeader(Walker& w, std::uint32_t version, bool offsets, std::uint64_t fileSize) {
+/// One grid's descriptor, compression flags, metadata and transform name at the walker's position.
+void gridHeader(Walker& w, std::uint32_t version, bool offsets, std::uint64_t fileSize) {
     const std::string name = w.string("grid name");
     w.string("grid type of '" + name + "'");
     if (version >= 216) w.string("instance parent of '" + name + "'");
@@ -148,8 +146,6 @@ bool gridHeader(Walker& w, std::uint32_t version, bool offsets, std::uint64_t fi
     if (version >= 222) w.get<std::uint32_t>("compression flags of '" + name + "'");
     metaMap(w, "metadata of grid '" + name + "'");
     w.string("transform type of '" + name + "'");
-    if (placed) w.seek(std::uint64_t(endPos));
-    return placed;
 }
 
 }  // namespace
@@ -177,8 +173,7 @@ VdbLayout checkVdbLayout(std::istream& in, std::uint64_t fileSize, const std::fi
     // A descriptor alone is three string lengths and three 64-bit offsets.
     if (grids < 0 || std::uint64_t(grids) * 36 > w.left())
         w.fail("the file claims " + std::to_string(grids) + " grids", countAt);
-    for (std::int32_t g = 0; g < grids; ++g)
-        if (!gridHeader(w, version, layout.offsets, fileSize)) break;
+    // Each grid's header is checked where the stream stands when readVdb reaches it (checkGridHeader).
     in.clear();
     in.seekg(0);
     return layout;

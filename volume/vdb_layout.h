@@ -21,8 +21,7 @@ struct VdbLayout {
     bool offsets = true;        ///< whether descriptors give each grid's place in the file
 };
 
-/// Checks the header, the file metadata and the grids' headers as far as the file places them; the stream
-/// is left at its start.
+/// Checks the header, the file metadata and the grid count; the stream is left at its start.
 /// @throw IoError naming the file, the byte offset and the field, on a layout OpenVDB should not read.
 VdbLayout checkVdbLayout(std::istream& in, std::uint64_t fileSize, const std::filesystem::path& path);
 /// Checks one grid's descriptor, metadata and transform name at byte `at`; the stream is left there.
