@@ -71,11 +71,11 @@ std::optional<FieldPtr> Evaluator::convexOperation(const Call& site) {
         ps.push_back(p);
     }
     if (hull) {
-        const mesh::ConvexHull h = hullOfParts(uniteParts(ps));
-        if (h.empty()) return dropped(site, "hull() of points that do not span a solid");
-        return withParts(makeConvexPolytope(h, "hull"), [points = h.points] {
+        auto h = std::make_shared<const mesh::ConvexHull>(hullOfParts(uniteParts(ps)));
+        if (h->empty()) return dropped(site, "hull() of points that do not span a solid");
+        return withParts(makeConvexPolytope(*h, "hull"), [h] {
             Parts p;
-            p.parts.push_back({points, {}, nullptr});
+            p.parts.push_back({h->points, {}, nullptr, h});
             return p;
         });
     }

@@ -34,7 +34,7 @@ void circle(std::vector<glm::dvec3>& out, double r, int n, double z) {
 }
 Parts convexOf(std::vector<glm::dvec3> points) {
     Parts p;
-    p.parts.push_back({std::move(points), {}, nullptr});
+    p.parts.push_back({std::move(points), {}, nullptr, nullptr});
     return p;
 }
 
@@ -46,9 +46,15 @@ struct Convex {
     glm::dvec3 lo{INFINITY}, hi{-INFINITY};
     bool empty() const { return faces.empty(); }
 };
+/// The hull of a convex part: the one it keeps, or computed.
+std::shared_ptr<const mesh::ConvexHull> hullOf(const Part& p) {
+    return p.hull ? p.hull : std::make_shared<const mesh::ConvexHull>(mesh::convexHull(p.points));
+}
+
 Convex convexOfPart(const Part& p) {
     Convex c;
-    const mesh::ConvexHull h = mesh::convexHull(p.points);
+    const auto kept = hullOf(p);
+    const mesh::ConvexHull& h = *kept;
     for (const glm::uvec3& t : h.triangles) {
         const glm::dvec3 a = h.points[t.x], b = h.points[t.y], q = h.points[t.z];
         const glm::dvec3 n = glm::cross(b - a, q - a);
@@ -165,8 +171,8 @@ std::vector<glm::dvec3> sums(const std::vector<glm::dvec3>& a, const std::vector
 }
 /// The convex part of the hull of the points, if it has a volume.
 void addHull(Parts& out, const std::vector<glm::dvec3>& points) {
-    mesh::ConvexHull h = mesh::convexHull(points);
-    if (!h.empty()) out.parts.push_back({std::move(h.points), {}, nullptr});
+    auto h = std::make_shared<const mesh::ConvexHull>(mesh::convexHull(points));
+    if (!h->empty()) out.parts.push_back({h->points, {}, nullptr, h});
 }
 
 }  // namespace
@@ -235,6 +241,7 @@ Parts transformParts(Parts p, const glm::dmat4& m) {
         std::for_each(part.points.begin(), part.points.end(), move);
         for (Polygon& poly : part.cover) std::for_each(poly.begin(), poly.end(), move);
         if (part.solid) part.solid = implicit::makeTransformed(part.solid, glm::mat4(m));
+        part.hull.reset();  // rounded, the moved points may not be exactly convex: hulled again
     }
     return p;
 }
@@ -284,7 +291,7 @@ std::optional<Parts> differenceParts(const std::vector<const Parts*>& kids, impl
             }
     Parts out;
     if (pieces.empty()) return out;  // nothing left
-    out.parts.push_back({{}, std::move(pieces), std::move(solid)});
+    out.parts.push_back({{}, std::move(pieces), std::move(solid), nullptr});
     return out;
 }
 
@@ -376,8 +383,8 @@ implicit::FieldPtr partsField(const Parts& p, const std::string& what) {
             fields.push_back(part.solid);
             continue;
         }
-        const mesh::ConvexHull h = mesh::convexHull(part.points);
-        if (!h.empty()) fields.push_back(makeConvexPolytope(h, what));
+        const auto h = hullOf(part);
+        if (!h->empty()) fields.push_back(makeConvexPolytope(*h, what));
     }
     if (fields.empty()) return nullptr;
     return fields.size() == 1 ? fields[0] : makeUnion(std::move(fields));

@@ -11,6 +11,7 @@
 ///   Two convex parts give the hull of the sums of their points.
 /// The evaluator keeps these parts beside the fields of the objects that have them.
 
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -27,6 +28,9 @@ struct Part {
     std::vector<glm::dvec3> points;              ///< a convex part: its hull is the part
     std::vector<std::vector<glm::dvec3>> cover;  ///< otherwise: convex planar polygons over its boundary
     implicit::FieldPtr solid;                    ///< otherwise: the part as a field
+    /// A convex part's hull when it is known (`points` are then its vertices): the hulls that made a
+    /// part are not computed again for its field or its clipping; a transform drops it.
+    std::shared_ptr<const mesh::ConvexHull> hull;
     bool convex() const { return !solid; }
 };
 struct Parts {

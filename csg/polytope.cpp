@@ -1,6 +1,7 @@
 #include "csg/polytope.h"
 
 #include <algorithm>
+#include <cfloat>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -116,42 +117,58 @@ FieldPtr makeConvexPolytope(const mesh::ConvexHull& hull, std::string what) {
     }
     // One plane per face: coplanar triangles of a face give (nearly) the same plane; keep the
     // first of each group in a deterministic order.
+    const double tol = 1e-9 * std::max(extent, 1.0);
     struct Candidate {
         Plane plane;
+        bool check;  // whether its rounding could put a point of the hull past tol (below)
     };
     std::vector<Candidate> c;
     for (const glm::uvec3& t : hull.triangles) {
         const glm::dvec3 a = hull.points[t.x], b = hull.points[t.y], q = hull.points[t.z];
-        const glm::dvec3 n = glm::cross(b - a, q - a);
+        const glm::dvec3 e1 = b - a, e2 = q - a;
+        const glm::dvec3 n = glm::cross(e1, e2);
         const double len = glm::length(n);
         if (!(len > 0)) continue;
         const glm::dvec3 u = n / len;
-        c.push_back({{u, glm::dot(u, a)}});
+        // The hull was made with exact predicates: every point p has (p - a) . n <= 0 for the exact
+        // normal n of the triangle. The computed one differs from it by at most about
+        // 10 eps |e1| |e2| (the differences and the cross product rounded), which tilts the unit
+        // normal by 10 eps kappa, kappa = |e1| |e2| / |n| (1 / the sine of the angle at a); over
+        // |p - a| <= 2 sqrt(3) extent, with the dot products' own rounding, a point can be past the
+        // plane by at most 64 eps (kappa + 1) extent. Only a sliver (kappa over about 10^4) can
+        // get near tol, and only its plane is checked against every point: the check costs
+        // planes x points, which for a hull of 20,000 points took seconds.
+        const double kappa = glm::length(e1) * glm::length(e2) / len;
+        const bool check = !(64 * DBL_EPSILON * (kappa + 1) * std::max(extent, 1.0) < 0.25 * tol);
+        c.push_back({{u, glm::dot(u, a)}, check});
     }
     std::sort(c.begin(), c.end(), [](const Candidate& x, const Candidate& y) {
         if (x.plane.n.x != y.plane.n.x) return x.plane.n.x < y.plane.n.x;
         if (x.plane.n.y != y.plane.n.y) return x.plane.n.y < y.plane.n.y;
         if (x.plane.n.z != y.plane.n.z) return x.plane.n.z < y.plane.n.z;
-        return x.plane.d < y.plane.d;
+        if (x.plane.d != y.plane.d) return x.plane.d < y.plane.d;
+        return x.check < y.check;
     });
-    std::vector<Plane> planes;
-    const double tol = 1e-9 * std::max(extent, 1.0);
+    std::vector<Candidate> kept;
     for (const Candidate& k : c) {
         bool same = false;
-        for (std::size_t j = planes.size(); j-- > 0 && !same;) {
-            if (planes[j].n.x < k.plane.n.x - 1e-9) break;  // sorted by x: no nearer one before
-            same = glm::length(planes[j].n - k.plane.n) < 1e-9 && std::abs(planes[j].d - k.plane.d) < tol;
+        for (std::size_t j = kept.size(); j-- > 0 && !same;) {
+            if (kept[j].plane.n.x < k.plane.n.x - 1e-9) break;  // sorted by x: no nearer one before
+            same = glm::length(kept[j].plane.n - k.plane.n) < 1e-9 && std::abs(kept[j].plane.d - k.plane.d) < tol;
         }
-        if (!same) planes.push_back(k.plane);
+        if (!same) kept.push_back(k);
     }
     // A sliver triangle (points a rounding error apart, as clipped or summed points make them) has a
     // normal that means nothing: keep only planes with every point of the hull on their inner side.
     // The rest still bound the hull (dropping a plane only ever adds the sliver's width).
-    std::erase_if(planes, [&](const Plane& pl) {
-        for (const glm::dvec3& p : hull.points)
-            if (glm::dot(pl.n, p) - pl.d > tol) return true;
-        return false;
-    });
+    std::vector<Plane> planes;
+    planes.reserve(kept.size());
+    for (const Candidate& k : kept) {
+        const bool outside = k.check && std::any_of(hull.points.begin(), hull.points.end(), [&](const glm::dvec3& p) {
+                                 return glm::dot(k.plane.n, p) - k.plane.d > tol;
+                             });
+        if (!outside) planes.push_back(k.plane);
+    }
     if (planes.size() < 4) throw std::invalid_argument(what + " is flat");
     // The rounding of a float evaluation: a few units in the last place of the largest coordinate.
     const double slack = 4 * extent * 1.2e-7;

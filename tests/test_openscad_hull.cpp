@@ -66,6 +66,30 @@ TEST(ConvexPolytope, ExactInsideConservativeBoundsAndPrunedAlike) {
     }
 }
 
+TEST(ConvexPolytope, SliversOfPointsARoundingErrorApartCutNothingOff) {
+    // Summed and clipped points come in clusters a few ulps apart: their hull has sliver triangles whose
+    // normals mean nothing. Only those planes are checked against every point (csg/polytope.cpp); no plane
+    // may cut a point off, and the polytope must still hug the points.
+    std::mt19937 rng(11);
+    std::normal_distribution<double> g;
+    for (const double apart : {1e-15, 1e-13, 1e-11}) {
+        std::vector<glm::dvec3> p;
+        for (int i = 0; i < 300; ++i) {
+            const glm::dvec3 v(g(rng), g(rng), g(rng));
+            const glm::dvec3 q = v / glm::length(v) * 3.0 + glm::dvec3(10, -4, 2);
+            p.push_back(q);
+            for (int k = 0; k < 3; ++k) p.push_back(q + apart * glm::dvec3(g(rng), g(rng), g(rng)));
+        }
+        const mesh::ConvexHull h = mesh::convexHull(p);
+        const auto f = csg::makeConvexPolytope(h);
+        for (const glm::dvec3& q : p) {
+            EXPECT_LE(f->value(glm::vec3(q)), 1e-5f) << "a point cut off, " << apart << " apart";
+            const glm::dvec3 out = glm::dvec3(10, -4, 2) + (q - glm::dvec3(10, -4, 2)) * 1.01;
+            EXPECT_GT(f->value(glm::vec3(out)), 0.f) << "a point 1% out is inside, " << apart << " apart";
+        }
+    }
+}
+
 TEST(OpenScadHull, HullsOfPrimitivesAndOfDifferences) {
     const auto s = csg::parseScene("hull() { cube(1); translate([3, 0, 0]) cube(1); }", "h.isf");
     EXPECT_LT(s.root->value(glm::vec3(2.f, 0.5f, 0.5f)), 0.f);  // the gap is filled
