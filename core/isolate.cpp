@@ -1,5 +1,6 @@
 #include "core/isolate.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -42,21 +43,31 @@ bool writeAll(int fd, const char* data, std::size_t size) {
     return true;
 }
 
-int answer(char kind, const std::string& bytes) {
+int answer(char kind, const HelperAnswer& a) {
+    std::uint64_t size = a.last.size();
+    for (const std::span<const char>& piece : a.first) size += piece.size();
     char header[kHeader] = {kind};
-    for (std::size_t i = 0; i < 8; ++i) header[1 + i] = char((std::uint64_t(bytes.size()) >> (8 * i)) & 0xFF);
-    return writeAll(STDOUT_FILENO, header, kHeader) && writeAll(STDOUT_FILENO, bytes.data(), bytes.size()) ? 0 : 3;
+    for (std::size_t i = 0; i < 8; ++i) header[1 + i] = char((size >> (8 * i)) & 0xFF);
+    bool ok = writeAll(STDOUT_FILENO, header, kHeader);
+    for (const std::span<const char>& piece : a.first) ok = ok && writeAll(STDOUT_FILENO, piece.data(), piece.size());
+    return ok && writeAll(STDOUT_FILENO, a.last.data(), a.last.size()) ? 0 : 3;
 }
 
-// The answer as it arrives: the header, then the bytes straight into a string of the announced size.
+// The answer as it arrives: the header, then the bytes straight into the caller's buffer of the announced
+// size (an error's message into a string).
 struct Reply {
+    explicit Reply(const std::function<char*(std::uint64_t)>& p) : place(p) {}
+    const std::function<char*(std::uint64_t)>& place;
     char header[kHeader] = {};
-    std::size_t headerBytes = 0, bytes = 0;
-    std::string body;
+    std::size_t headerBytes = 0;
+    std::uint64_t size = 0, bytes = 0;
+    char* body = nullptr;
+    std::string message;
+    std::exception_ptr placeFailed;  // what place() threw; the rest is drained and dropped
     bool tooLong = false;
 
     char kind() const { return header[0]; }
-    bool complete() const { return headerBytes == kHeader && bytes == body.size() && !tooLong; }
+    bool complete() const { return headerBytes == kHeader && bytes == size && !tooLong && !placeFailed; }
 
     /// Reads once from fd; false at the end of the stream (or an error).
     bool readFrom(int fd) {
@@ -66,30 +77,39 @@ struct Reply {
         if (headerBytes < kHeader) {
             to = header + headerBytes;
             room = kHeader - headerBytes;
-        } else if (bytes < body.size()) {
-            to = body.data() + bytes;
-            room = body.size() - bytes;
+        } else if (body && bytes < size) {
+            to = body + bytes;
+            room = std::size_t(std::min<std::uint64_t>(size - bytes, std::uint64_t(1) << 30));
         }
         const ssize_t n = ::read(fd, to, room);
         if (n < 0 && errno == EINTR) return true;
         if (n <= 0) return false;
         if (headerBytes < kHeader) {
             headerBytes += std::size_t(n);
-            if (headerBytes == kHeader) {
-                std::uint64_t size = 0;
-                for (std::size_t i = 0; i < 8; ++i)
-                    size |= std::uint64_t(static_cast<unsigned char>(header[1 + i])) << (8 * i);
-                if (size > (std::uint64_t(1) << 40))
-                    tooLong = true;
-                else
-                    body.resize(std::size_t(size));
-            }
+            if (headerBytes == kHeader) start();
         } else if (to == scratch) {
-            tooLong = true;  // more than announced
+            tooLong = tooLong || !placeFailed;  // more than announced (or dropped after place() failed)
         } else {
             bytes += std::size_t(n);
         }
         return true;
+    }
+
+private:
+    void start() {
+        for (std::size_t i = 0; i < 8; ++i) size |= std::uint64_t(static_cast<unsigned char>(header[1 + i])) << (8 * i);
+        if (size > (std::uint64_t(1) << 40)) {
+            tooLong = true;
+        } else if (kind() != kResult) {
+            message.resize(std::size_t(size));
+            body = message.data();
+        } else {
+            try {
+                body = place(size);
+            } catch (...) {
+                placeFailed = std::current_exception();
+            }
+        }
     }
 };
 
@@ -118,7 +138,7 @@ struct Pipe {
 namespace {
 
 int respond(const std::string& what, const std::string& library, std::uint64_t memoryLimit,
-            const std::function<std::string()>& work) {
+            const std::function<HelperAnswer()>& work) {
     try {
         return answer(kResult, work());
     } catch (const std::bad_alloc&) {
@@ -126,20 +146,20 @@ int respond(const std::string& what, const std::string& library, std::uint64_t m
                                           std::to_string(memoryLimit >> 20) +
                                           " MiB its size justifies (a corrupt length field?)");
     } catch (const ParseError& e) {
-        return answer(kParseError, e.what());
+        return answer(kParseError, std::string(e.what()));
     } catch (const IoError& e) {
-        return answer(kIoError, e.what());
+        return answer(kIoError, std::string(e.what()));
     } catch (const ResourceError& e) {
-        return answer(kResourceError, e.what());
+        return answer(kResourceError, std::string(e.what()));
     } catch (const std::exception& e) {
-        return answer(kOther, e.what());
+        return answer(kOther, std::string(e.what()));
     }
 }
 
 }  // namespace
 
 [[noreturn]] void helperMain(const std::string& what, const std::string& library, std::uint64_t memoryLimit,
-                             const std::function<std::string()>& work) {
+                             const std::function<HelperAnswer()>& work) {
     if (memoryLimit > 0) limitAddressSpace(memoryLimit);
     // _exit once answered: a process that lives for one read needs no static destructors (GDCM's), and a
     // sanitizer's leak report at exit would turn a good answer into a failed process.
@@ -148,6 +168,16 @@ int respond(const std::string& what, const std::string& library, std::uint64_t m
 
 std::string runHelper(const std::string& what, const std::string& library, const std::filesystem::path& program,
                       const std::vector<std::string>& args) {
+    std::string body;
+    runHelper(what, library, program, args, [&](std::uint64_t size) {
+        body.resize(std::size_t(size));
+        return body.data();
+    });
+    return body;
+}
+
+std::uint64_t runHelper(const std::string& what, const std::string& library, const std::filesystem::path& program,
+                        const std::vector<std::string>& args, const std::function<char*(std::uint64_t)>& place) {
     Pipe out, err;
     if (::pipe2(out.fd, O_CLOEXEC) != 0 || ::pipe2(err.fd, O_CLOEXEC) != 0)
         throw ResourceError(what + ": cannot create a pipe: " + std::strerror(errno));
@@ -173,7 +203,7 @@ std::string runHelper(const std::string& what, const std::string& library, const
     out.fd[1] = err.fd[1] = -1;
 
     // Both pipes drained together: a helper blocked on a full stderr pipe would never finish its answer.
-    Reply reply;
+    Reply reply(place);
     std::string messages;
     pollfd fds[2] = {{out.fd[0], POLLIN, 0}, {err.fd[0], POLLIN, 0}};
     int open = 2;
@@ -201,6 +231,7 @@ std::string runHelper(const std::string& what, const std::string& library, const
     int status = 0;
     while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
     }
+    if (reply.placeFailed) std::rethrow_exception(reply.placeFailed);
     if (WIFSIGNALED(status)) {
         const int sig = WTERMSIG(status);
         const char* name = ::strsignal(sig);
@@ -224,15 +255,15 @@ std::string runHelper(const std::string& what, const std::string& library, const
     if (!messages.empty() && kind == kResult) std::cerr << messages << std::flush;
     switch (kind) {
         case kResult:
-            return std::move(reply.body);
+            return reply.size;
         case kParseError:
-            throw ParseError(reply.body);
+            throw ParseError(reply.message);
         case kIoError:
-            throw IoError(reply.body);
+            throw IoError(reply.message);
         case kResourceError:
-            throw ResourceError(reply.body);
+            throw ResourceError(reply.message);
         default:
-            throw IoError(what + ": " + reply.body);
+            throw IoError(what + ": " + reply.message);
     }
 }
 

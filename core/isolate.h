@@ -10,6 +10,8 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -23,6 +25,20 @@ namespace isoforge {
 /// @throw ResourceError if the program cannot be started.
 std::string runHelper(const std::string& what, const std::string& library, const std::filesystem::path& program,
                       const std::vector<std::string>& args);
+/// The same, with the result's bytes read straight into `place(size)`, a buffer of at least `size` bytes
+/// that the caller owns (a volume's voxels: no 50 MB string in between); returns the size. What `place`
+/// throws is thrown once the helper has ended.
+std::uint64_t runHelper(const std::string& what, const std::string& library, const std::filesystem::path& program,
+                        const std::vector<std::string>& args, const std::function<char*(std::uint64_t size)>& place);
+
+/// What a helper's work answers: the bytes of `first` (spans into what `keep` holds), then those of `last`,
+/// written as they are (no copy of a volume into one buffer first). A string converts to an answer.
+struct HelperAnswer {
+    HelperAnswer(std::string bytes = {}) : last(std::move(bytes)) {}  // NOLINT: a string is an answer
+    std::vector<std::span<const char>> first;
+    std::shared_ptr<const void> keep;
+    std::string last;
+};
 
 /// The main of a helper program: bounds the address space to what the process holds now plus
 /// `memoryLimit` bytes (0: no bound; with a sanitizer, its shadow reservations are part of what it holds),
@@ -30,6 +46,6 @@ std::string runHelper(const std::string& what, const std::string& library, const
 /// ResourceError saying that reading `what` with `library` needed more than its size justifies.
 /// Ends the process (_exit) once it has answered.
 [[noreturn]] void helperMain(const std::string& what, const std::string& library, std::uint64_t memoryLimit,
-                             const std::function<std::string()>& work);
+                             const std::function<HelperAnswer()>& work);
 
 }  // namespace isoforge

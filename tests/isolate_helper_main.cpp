@@ -1,8 +1,9 @@
 // A helper program for Isolate.* (tests/test_isolate.cpp): `isoforge-test-helper MODE` answers as a reader
 // helper would: big (10 MB, with 5,000 lines of warnings on stderr), empty, parse, resource, odd, abort,
-// hog (allocates 1 GiB under a 64 MiB bound).
+// hog (allocates 1 GiB under a 64 MiB bound), pieces (3 MB from a kept buffer, then "end").
 #include <cstdlib>
 #include <iostream>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -11,6 +12,15 @@
 
 int main(int argc, char** argv) {
     const std::string mode = argc > 1 ? argv[1] : "";
+    if (mode == "pieces")  // 3 MB in two pieces of a kept buffer, then "end" (as the DICOM helper answers)
+        isoforge::helperMain("f", "test", 0, [] {
+            auto kept = std::make_shared<std::vector<char>>(3'000'000);
+            for (std::size_t i = 0; i < kept->size(); ++i) (*kept)[i] = char('a' + i % 23);
+            isoforge::HelperAnswer a("end");
+            a.first = {{kept->data(), 1'000'000}, {kept->data() + 1'000'000, 2'000'000}};
+            a.keep = kept;
+            return a;
+        });
     isoforge::helperMain("f", "test", mode == "hog" ? std::uint64_t(64) << 20 : 0, [&]() -> std::string {
         if (mode == "big") {
             for (int i = 0; i < 5000; ++i) std::cerr << "a warning line of the library, number " << i << "\n";

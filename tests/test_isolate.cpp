@@ -1,7 +1,11 @@
 // runHelper (core/isolate.h) with tests/isolate_helper_main.cpp: a library's abort() in the helper is an
 // IoError here with the library's last line; errors and results cross the pipe whole, however large; an
 // allocation past the helper's bound is a ResourceError.
+#include <cerrno>
 #include <string>
+#include <vector>
+
+#include <sys/wait.h>
 
 #include <gtest/gtest.h>
 
@@ -58,6 +62,30 @@ TEST(Isolate, ResultsErrorsAndAbortsCrossTheProcessBoundary) {
         EXPECT_NE(m.find("Should not happen"), std::string::npos) << m;
         EXPECT_EQ(m.find('\n'), std::string::npos) << m;
     }
+}
+
+TEST(Isolate, ResultsLandInTheCallersBufferAndItsErrorsWaitForTheHelper) {
+    // Pieces of the helper's own buffer, then a string, into a buffer of ours (the DICOM voxels' path).
+    std::vector<char> buffer;
+    const std::uint64_t size = runHelper("f", "test", ISOFORGE_TEST_HELPER, {"pieces"}, [&](std::uint64_t n) {
+        buffer.resize(std::size_t(n));
+        return buffer.data();
+    });
+    ASSERT_EQ(size, 3'000'003u);
+    for (std::size_t i = 0; i < 3'000'000; i += 999) ASSERT_EQ(buffer[i], char('a' + i % 23)) << i;
+    EXPECT_EQ(std::string(buffer.end() - 3, buffer.end()), "end");
+
+    // A buffer that cannot be had: its error, once the helper has been drained and waited for.
+    try {
+        runHelper("f", "test", ISOFORGE_TEST_HELPER, {"big"},
+                  [](std::uint64_t n) -> char* { throw ResourceError("no room for " + std::to_string(n) + " bytes"); });
+        ADD_FAILURE() << "no error";
+    } catch (const ResourceError& e) {
+        EXPECT_STREQ(e.what(), "no room for 10000000 bytes");
+    }
+    errno = 0;
+    EXPECT_EQ(::waitpid(-1, nullptr, WNOHANG), -1) << "a helper left unwaited for";
+    EXPECT_EQ(errno, ECHILD);
 }
 
 }  // namespace

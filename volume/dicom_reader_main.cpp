@@ -3,6 +3,7 @@
 #include <malloc.h>
 #include <cstdlib>
 #include <iostream>
+#include <memory>
 
 #include "core/isolate.h"
 #include "volume/readers.h"
@@ -17,7 +18,12 @@ int main(int argc, char** argv) {
         return 2;
     }
     isoforge::helperMain(argv[1], "GDCM", std::strtoull(argv[3], nullptr, 10), [&] {
-        return isoforge::volume::detail::serializeVolume(
-            isoforge::volume::detail::readDicomSeriesHere(argv[1], argv[2]));
+        // The voxels are written from the volume itself, then its description (volume/readers.h).
+        namespace detail = isoforge::volume::detail;
+        auto v = std::make_shared<const isoforge::volume::DenseVolume>(detail::readDicomSeriesHere(argv[1], argv[2]));
+        isoforge::HelperAnswer a(detail::describeVolume(*v));
+        a.first.emplace_back(reinterpret_cast<const char*>(v->values.data()), v->values.size() * sizeof(float));
+        a.keep = std::move(v);
+        return a;
     });
 }

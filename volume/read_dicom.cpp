@@ -3,7 +3,9 @@
 #include <cstdint>
 #include <cstring>
 #include <string>
+#include <vector>
 
+#include "core/big_buffer.h"
 #include "core/error.h"
 #include "core/isolate.h"
 #include "core/module.h"
@@ -25,9 +27,8 @@ void putString(std::string& out, const std::string& s) {
 
 }  // namespace
 
-std::string serializeVolume(const DenseVolume& v) {
+std::string describeVolume(const DenseVolume& v) {
     std::string out;
-    out.reserve(v.values.size() * sizeof(float) + 4096);  // one allocation for a 50 MB series, not a dozen
     put(out, v.dims.data(), sizeof v.dims);
     put(out, &v.indexToWorld, sizeof v.indexToWorld);
     const std::uint64_t files = v.files, notes = v.notes.size();
@@ -35,36 +36,51 @@ std::string serializeVolume(const DenseVolume& v) {
     for (const std::string* s : {&v.format, &v.storedType, &v.units, &v.modality}) putString(out, *s);
     put(out, &notes, sizeof notes);
     for (const std::string& n : v.notes) putString(out, n);
-    put(out, v.values.data(), v.values.size() * sizeof(float));
+    const std::uint64_t size = out.size();
+    put(out, &size, sizeof size);
     return out;
+}
+
+std::string serializeVolume(const DenseVolume& v) {
+    std::string out(reinterpret_cast<const char*>(v.values.data()), v.values.size() * sizeof(float));
+    return out + describeVolume(v);
 }
 
 namespace {
 
 struct Reader {
-    const std::string& bytes;
+    const char* bytes;
+    std::size_t size;
     const std::string& what;
     std::size_t at = 0;
-    void get(void* data, std::size_t size) {
-        if (size > bytes.size() - at) throw IoError(what + ": the DICOM reading process sent a short answer");
-        std::memcpy(data, bytes.data() + at, size);
-        at += size;
+    [[noreturn]] void shortAnswer() const { throw IoError(what + ": the DICOM reading process sent a short answer"); }
+    void get(void* data, std::size_t n) {
+        if (n > size - at) shortAnswer();
+        std::memcpy(data, bytes + at, n);
+        at += n;
     }
     std::string getString() {
         std::uint64_t n = 0;
         get(&n, sizeof n);
-        if (n > bytes.size() - at) throw IoError(what + ": the DICOM reading process sent a short answer");
-        std::string s = bytes.substr(at, n);
-        at += n;
+        if (n > size - at) shortAnswer();
+        std::string s(bytes + at, std::size_t(n));
+        at += std::size_t(n);
         return s;
     }
 };
 
 }  // namespace
 
-DenseVolume deserializeVolume(const std::string& bytes, const std::string& what) {
+DenseVolume volumeFromAnswer(std::vector<float> buffer, std::uint64_t bytes, const std::string& what) {
+    const char* all = reinterpret_cast<const char*>(buffer.data());
+    std::uint64_t described = 0;
+    if (bytes < sizeof described || bytes > buffer.size() * sizeof(float))
+        throw IoError(what + ": the DICOM reading process sent a short answer");
+    std::memcpy(&described, all + bytes - sizeof described, sizeof described);
+    if (described > bytes - sizeof described) throw IoError(what + ": the DICOM reading process sent a short answer");
+    const std::uint64_t voxelBytes = bytes - sizeof described - described;
     DenseVolume v;
-    Reader r{bytes, what};
+    Reader r{all + voxelBytes, std::size_t(described), what};
     r.get(v.dims.data(), sizeof v.dims);
     r.get(&v.indexToWorld, sizeof v.indexToWorld);
     std::uint64_t files = 0, notes = 0;
@@ -73,11 +89,17 @@ DenseVolume deserializeVolume(const std::string& bytes, const std::string& what)
     for (std::string* s : {&v.format, &v.storedType, &v.units, &v.modality}) *s = r.getString();
     r.get(&notes, sizeof notes);
     for (std::uint64_t i = 0; i < notes; ++i) v.notes.push_back(r.getString());
-    if ((bytes.size() - r.at) != v.voxelCount() * sizeof(float))
+    if (r.at != r.size || voxelBytes != v.voxelCount() * sizeof(float))
         throw IoError(what + ": the DICOM reading process sent a volume of the wrong size");
-    v.values.resize(v.voxelCount());
-    r.get(v.values.data(), v.values.size() * sizeof(float));
+    buffer.resize(v.voxelCount());  // drops the description's bytes: no new allocation
+    v.values = std::move(buffer);
     return v;
+}
+
+DenseVolume deserializeVolume(const std::string& bytes, const std::string& what) {
+    std::vector<float> buffer((bytes.size() + sizeof(float) - 1) / sizeof(float));
+    std::memcpy(buffer.data(), bytes.data(), bytes.size());
+    return volumeFromAnswer(std::move(buffer), bytes.size(), what);
 }
 
 std::uint64_t dicomMemoryLimit(const std::filesystem::path& dir) {
@@ -95,8 +117,14 @@ DenseVolume readDicomSeries(const std::filesystem::path& dir, const std::string&
     // a helper program (core/isolate.h), and the volume comes back as bytes.
     const std::uint64_t limit = dicomMemoryLimit(dir);
     const auto program = helperProgram("isoforge-dicom-reader", "it reads DICOM series");
-    return deserializeVolume(
-        runHelper(dir.string(), "GDCM", program, {dir.string(), wantedSeries, std::to_string(limit)}), dir.string());
+    // The answer lands in the volume's own voxels (the description after them is cut off): one 50 MB buffer.
+    std::vector<float> buffer;
+    const std::uint64_t bytes = runHelper(
+        dir.string(), "GDCM", program, {dir.string(), wantedSeries, std::to_string(limit)}, [&](std::uint64_t size) {
+            resizeLarge(buffer, std::size_t((size + sizeof(float) - 1) / sizeof(float)));
+            return reinterpret_cast<char*>(buffer.data());
+        });
+    return volumeFromAnswer(std::move(buffer), bytes, dir.string());
 }
 
 }  // namespace isoforge::volume::detail

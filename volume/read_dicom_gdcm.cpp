@@ -22,6 +22,7 @@
 
 #include <glm/geometric.hpp>
 
+#include "core/big_buffer.h"
 #include "core/error.h"
 #include "volume/dicom_layout.h"
 #include "volume/readers.h"
@@ -184,7 +185,7 @@ DenseVolume readDicomSeriesHere(const std::filesystem::path& dir, const std::str
         if (k == 0) {
             v.dims = {w, h, std::int64_t(sorted.size())};
             checkVolumeSize(dir, v.dims);
-            v.values.resize(v.voxelCount());
+            resizeLarge(v.values, std::size_t(v.voxelCount()));
             v.storedType = type;
             const double* o = img.GetOrigin();
             const double* c = img.GetDirectionCosines();

@@ -19,7 +19,13 @@ DenseVolume readDicomSeries(const std::filesystem::path& dir, const std::string&
 DenseVolume readDicomSeriesHere(const std::filesystem::path& dir, const std::string& series);
 /// The memory the DICOM helper may use for the files of `dir` (its address-space limit).
 std::uint64_t dicomMemoryLimit(const std::filesystem::path& dir);
-/// A volume as bytes and back (the helper's answer).
+/// A volume as the helper answers it: its voxels (floats), then describeVolume's bytes: the dimensions, the
+/// matrix and the strings, ending with their own size (8 bytes).
+std::string describeVolume(const DenseVolume& v);
+/// The volume from the first `bytes` bytes of `buffer`, which hold such an answer (the buffer becomes its
+/// voxels). @throw IoError for an answer that is short or of the wrong size.
+DenseVolume volumeFromAnswer(std::vector<float> buffer, std::uint64_t bytes, const std::string& what);
+/// The whole answer in one string and back (the fuzz target's round trip).
 std::string serializeVolume(const DenseVolume& v);
 DenseVolume deserializeVolume(const std::string& bytes, const std::string& what);
 DenseVolume readRaw(const std::filesystem::path& path, const VolumeReadOptions& o);

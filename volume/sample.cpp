@@ -23,12 +23,6 @@ using implicit::Box3;
 using implicit::FieldPtr;
 using openvdb::Coord;
 
-std::uint64_t physicalMemory() {
-    const long pages = ::sysconf(_SC_PHYS_PAGES), size = ::sysconf(_SC_PAGE_SIZE);
-    return pages > 0 && size > 0 ? static_cast<std::uint64_t>(pages) * static_cast<std::uint64_t>(size)
-                                 : std::uint64_t{8} << 30;
-}
-
 Box3 sampleDomain(const implicit::Field& field, const Box3& clip) {
     return field.bounds().intersect(clip);
 }

@@ -7,6 +7,7 @@
 
 #include "core/progress.h"
 #include "implicit/field.h"
+#include "volume/machine_memory.h"
 
 namespace isoforge::volume {
 
@@ -48,8 +49,5 @@ implicit::Box3 sampleDomain(const implicit::Field& field, const implicit::Box3& 
 
 /// Voxel size giving `n` voxels along the longest side of `domain`.
 float voxelSizeForResolution(const implicit::Box3& domain, int n);
-
-/// Physical memory of this machine, bytes.
-std::uint64_t physicalMemory();
 
 }  // namespace isoforge::volume
