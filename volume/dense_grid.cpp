@@ -7,6 +7,7 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
+#include "core/big_buffer.h"
 #include "core/error.h"
 #include "volume/readers.h"
 #include "volume/vdb_io.h"
@@ -175,7 +176,7 @@ DenseVolume toDense(const openvdb::FloatGrid& grid, const std::filesystem::path&
     v.dims = {d.x(), d.y(), d.z()};
     // A few bytes of active tiles can span 4096^3 voxels: refuse before allocating, with the estimate.
     detail::checkVolumeSize(what, v.dims);
-    v.values.resize(v.voxelCount());
+    resizeLarge(v.values, std::size_t(v.voxelCount()));
     openvdb::tools::Dense<float, openvdb::tools::LayoutXYZ> dense(box, v.values.data());
     openvdb::tools::copyToDense(grid, dense);
     if (!grid.transform().isLinear()) throw IoError(what + " has a non-linear transform");

@@ -14,6 +14,7 @@
 #include <glm/geometric.hpp>
 #include <glm/matrix.hpp>
 
+#include "core/big_buffer.h"
 #include "core/error.h"
 #include "volume/readers.h"
 #include "volume/sample.h"
@@ -118,7 +119,7 @@ DenseVolume readRaw(const std::filesystem::path& path, const VolumeReadOptions& 
     std::vector<char> bytes(v.voxelCount() * bytesPer);
     in.read(bytes.data(), std::streamsize(bytes.size()));
     if (!in) throw IoError(path.string() + ": read error");
-    v.values.resize(v.voxelCount());
+    resizeLarge(v.values, std::size_t(v.voxelCount()));
     convertVoxels(bytes.data(), o.rawType, o.rawBigEndian, v.voxelCount(), v.values.data());
     v.indexToWorld = glm::dmat4(1.0);
     for (int a = 0; a < 3; ++a) v.indexToWorld[a][a] = o.rawSpacing[a];
@@ -314,7 +315,7 @@ DenseVolume readMetaImage(const std::filesystem::path& path) {
                           std::to_string(payload.size()) + " bytes");
         voxels = payload.data() + (payload.size() - bytes);  // HeaderSize = -1 semantics: the data ends the file
     }
-    v.values.resize(v.voxelCount());
+    resizeLarge(v.values, std::size_t(v.voxelCount()));
     convertVoxels(voxels, v.storedType, msb, v.voxelCount(), v.values.data());
     return v;
 }

@@ -11,6 +11,7 @@
 
 #include <nifti/nifti2_io.h>
 
+#include "core/big_buffer.h"
 #include "core/error.h"
 #include "volume/readers.h"
 
@@ -133,7 +134,7 @@ DenseVolume readNifti(const std::filesystem::path& path) {
     if (nifti_image_load(header.get()) != 0 || !h.data)
         throw IoError(path.string() + ": niftilib could not read the voxel data");
 
-    v.values.resize(v.voxelCount());
+    resizeLarge(v.values, std::size_t(v.voxelCount()));
     // nifti_image_load leaves the data in native byte order.
     convertVoxels(h.data, type, std::endian::native == std::endian::big, v.voxelCount(), v.values.data());
     if (h.scl_slope != 0.0 && std::isfinite(h.scl_slope) && (h.scl_slope != 1.0 || h.scl_inter != 0.0)) {

@@ -9,6 +9,7 @@
 #include <teem/biff.h>
 #include <teem/nrrd.h>
 
+#include "core/big_buffer.h"
 #include "core/error.h"
 #include "volume/readers.h"
 
@@ -77,7 +78,7 @@ DenseVolume readNrrd(const std::filesystem::path& path) {
     v.dims = {std::int64_t(n->axis[0].size), std::int64_t(n->axis[1].size),
               n->dim == 3 ? std::int64_t(n->axis[2].size) : 1};
     checkVolumeSize(path, v.dims);
-    v.values.resize(v.voxelCount());
+    resizeLarge(v.values, std::size_t(v.voxelCount()));
     // teem has decoded and byte-swapped the data to native order: convert without swapping.
     convertVoxels(n->data, type, std::endian::native == std::endian::big, v.voxelCount(), v.values.data());
 
