@@ -9,6 +9,8 @@
 #include <map>
 #include <numeric>
 
+#include <openvdb/io/File.h>
+#include <openvdb/points/PointDataGrid.h>
 #include <glm/geometric.hpp>
 
 #include <gtest/gtest.h>
@@ -607,6 +609,24 @@ TEST(Volumes, FuzzFindingsAreErrorsNamingTheFile) {
         }
     }
     EXPECT_GE(n, 1u);
+}
+
+TEST(Volumes, PointDataGridsAreRefusedAsNotVolumes) {
+    // OpenVDB reads a point data grid's attribute arrays with blosc from buffers it does not check, as it did
+    // the delayed-load metadata fuzz_vdb found (vdb-delayed-load-blosc-header-claims-1.8-gb.vdb): isoforge
+    // reads volumes only, and refuses any other grid type before OpenVDB reads its tree.
+    openvdb::initialize();
+    const auto path = test::scratchDir("points") / "points.vdb";
+    auto points = openvdb::points::PointDataGrid::create();
+    points->setName("cloud");
+    openvdb::io::File(path.string()).write({points});
+    try {
+        volume::readVdb(path);
+        ADD_FAILURE() << "a point data grid was read";
+    } catch (const IoError& e) {
+        EXPECT_NE(std::string(e.what()).find("grid 'cloud' is of type 'Tree_ptdataidx32_5_4_3'"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("not a volume"), std::string::npos) << e.what();
+    }
 }
 
 TEST(Volumes, GridsNearOneLevelMeshLikeTheWholeVolume) {

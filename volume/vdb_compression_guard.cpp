@@ -3,6 +3,7 @@
 #include <cstdint>
 #include <istream>
 #include <string>
+#include <string_view>
 
 #include <dlfcn.h>
 #include <openvdb/Exceptions.h>
@@ -37,6 +38,21 @@ void checkChunk(std::istream& is, std::size_t numBytes, const char* kind) {
     if (size > 0 && std::uint64_t(size) > numBytes + numBytes / 512 + 1024)
         OPENVDB_THROW(openvdb::RuntimeError, "a " << kind << " chunk of " << size << " bytes for " << numBytes
                                                   << " bytes of values: more than compression could make");
+    // blosc 1.21 decompresses by the sizes in the chunk's own 16-byte header (its API takes no source size):
+    // a chunk shorter than a header, or whose header claims more bytes than the chunk holds, made it read
+    // past OpenVDB's buffer (fuzz_vdb found it in the delayed-load metadata; vdb_layout.cpp checks those).
+    if (size > 0 && std::string_view(kind) == "blosc") {
+        unsigned char header[16] = {};
+        if (size < std::int64_t(sizeof header))
+            OPENVDB_THROW(openvdb::RuntimeError, "a blosc chunk of " << size << " bytes, shorter than its header");
+        is.read(reinterpret_cast<char*>(header), sizeof header);
+        if (!is.good()) OPENVDB_THROW(openvdb::RuntimeError, "stream failure reading a blosc chunk's header");
+        const std::uint32_t claimed = std::uint32_t(header[12]) | std::uint32_t(header[13]) << 8 |
+                                      std::uint32_t(header[14]) << 16 | std::uint32_t(header[15]) << 24;
+        if (claimed > std::uint64_t(size))
+            OPENVDB_THROW(openvdb::RuntimeError,
+                          "a blosc chunk of " << size << " bytes whose header claims " << claimed);
+    }
     // The uncompressed size, negated in unsigned arithmetic: -2^63 has no positive int64 (fuzz_vdb, UBSan).
     const std::uint64_t uncompressed = std::uint64_t(0) - std::uint64_t(size);
     if (size <= 0 && uncompressed != numBytes)

@@ -60,6 +60,10 @@ namespace {
 // 0.1 mm is 54 km. Checked on the root's entries (children and tiles), which hold every other node.
 constexpr std::int64_t kMaxCoordinate = std::int64_t(1) << 29;
 
+/// The grid types isoforge reads: OpenVDB's registered ones less its point grids (PointIndexGrid, PointDataGrid).
+using VolumeGridTypes =
+    openvdb::NumericGridTypes::Append<openvdb::Vec3GridTypes>::Append<openvdb::BoolGrid, openvdb::MaskGrid>;
+
 void checkCoordinates(const openvdb::GridBase& grid, const std::filesystem::path& path) {
     const auto rootEntries = [&](const auto& g) {
         for (auto it = g.tree().root().cbeginChildAll(); it; ++it) {
@@ -71,7 +75,7 @@ void checkCoordinates(const openvdb::GridBase& grid, const std::filesystem::path
                                   "), more than 2^29 voxels from the origin");
         }
     };
-    grid.apply<openvdb::GridTypes>(rootEntries);
+    grid.apply<VolumeGridTypes>(rootEntries);
 }
 
 // A linear transform must be invertible as OpenVDB inverts it: AffineMap refuses a determinant within
@@ -115,6 +119,12 @@ public:
                 throw IoError(path.string() + ": grid '" + gd.uniqueName() + "' is of an unknown type, '" +
                               gd.gridType() + "'");
             openvdb::GridBase::Ptr grid = openvdb::GridBase::createGrid(gd.gridType());
+            // Volumes only: scalar, vector and mask grids. Point data grids hold attribute arrays that OpenVDB
+            // decompresses with blosc from buffers it does not check (as it did the delayed-load metadata).
+            const auto volume = [](const auto&) {};
+            if (!grid->apply<VolumeGridTypes>(volume))
+                throw IoError(path.string() + ": grid '" + gd.uniqueName() + "' is of type '" + gd.gridType() +
+                              "', not a volume (isoforge reads scalar, vector and mask grids)");
             grid->setSaveFloatAsHalf(gd.saveFloatAsHalf());
             Archive::readGrid(grid, gd, is);
             grids.push_back(grid);

@@ -68,12 +68,21 @@ const std::map<std::string, std::uint32_t>& fixedSizes() {
     return sizes;
 }
 
-// A blosc buffer's header holds its uncompressed size at bytes 4..7.
+// A blosc buffer's header holds its uncompressed size at bytes 4..7 and its own size at 12..15, which blosc
+// 1.21 trusts as the buffer's when it decompresses (its API takes no source size): a header claiming more
+// than the buffer holds made it read past OpenVDB's buffer (fuzz_vdb: SEGV in libblosc, from
+// DelayedLoadMetadata::readValue).
 std::uint32_t bloscUncompressed(Walker& w, std::uint32_t bytes, const std::string& what) {
     if (bytes < 16) w.fail(what + ": a blosc buffer of " + std::to_string(bytes) + " bytes", w.at());
     const std::uint64_t start = w.at();
     w.get<std::uint32_t>(what);
     const auto n = w.get<std::uint32_t>(what);
+    w.get<std::uint32_t>(what);
+    const auto claimed = w.get<std::uint32_t>(what);
+    if (claimed > bytes)
+        w.fail(what + ": a blosc buffer of " + std::to_string(bytes) + " bytes whose header claims " +
+                   std::to_string(claimed),
+               start);
     w.seek(start);
     w.skip(bytes, what);
     return n;
