@@ -624,7 +624,8 @@ TEST(Volumes, PointDataGridsAreRefusedAsNotVolumes) {
         volume::readVdb(path);
         ADD_FAILURE() << "a point data grid was read";
     } catch (const IoError& e) {
-        EXPECT_NE(std::string(e.what()).find("grid 'cloud' is of type 'Tree_ptdataidx32_5_4_3'"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("grid 'cloud' is of type 'Tree_ptdataidx32_5_4_3'"), std::string::npos)
+            << e.what();
         EXPECT_NE(std::string(e.what()).find("not a volume"), std::string::npos) << e.what();
     }
 }
