@@ -20,9 +20,10 @@ namespace {
 
 using Polygon = std::vector<glm::dvec3>;
 
-/// Past these a hostile or absurd model is refused rather than left to run for minutes: point
-/// sums of one pair of convex parts (two 96-sided spheres make 21 million), and the polygons
-/// covering a difference (each subtracted part can split a polygon into one piece per face).
+/// Past this a hostile or absurd model is refused rather than left to run for minutes: the polygons
+/// covering a difference (each subtracted part can split a polygon into one piece per face). Point
+/// sums of one pair of convex parts have their bound in maxMinkowskiSums() (two 96-sided spheres make
+/// 21 million).
 constexpr std::size_t kMaxCoverPieces = 500'000;
 
 /// OpenSCAD's generate_circle: `n` points of radius r, the first on +x, at its exact degree trigonometry.

@@ -43,17 +43,22 @@ std::string describeVolume(const DenseVolume& v) {
 
 std::string serializeVolume(const DenseVolume& v) {
     std::string out(reinterpret_cast<const char*>(v.values.data()), v.values.size() * sizeof(float));
-    return out + describeVolume(v);
+    out += describeVolume(v);
+    return out;
 }
 
 namespace {
+
+IoError shortAnswerError(const std::string& what) {
+    return IoError(what + ": the DICOM reading process sent a short answer");
+}
 
 struct Reader {
     const char* bytes;
     std::size_t size;
     const std::string& what;
     std::size_t at = 0;
-    [[noreturn]] void shortAnswer() const { throw IoError(what + ": the DICOM reading process sent a short answer"); }
+    [[noreturn]] void shortAnswer() const { throw shortAnswerError(what); }
     void get(void* data, std::size_t n) {
         if (n > size - at) shortAnswer();
         std::memcpy(data, bytes + at, n);
@@ -74,10 +79,9 @@ struct Reader {
 DenseVolume volumeFromAnswer(std::vector<float> buffer, std::uint64_t bytes, const std::string& what) {
     const char* all = reinterpret_cast<const char*>(buffer.data());
     std::uint64_t described = 0;
-    if (bytes < sizeof described || bytes > buffer.size() * sizeof(float))
-        throw IoError(what + ": the DICOM reading process sent a short answer");
+    if (bytes < sizeof described || bytes > buffer.size() * sizeof(float)) throw shortAnswerError(what);
     std::memcpy(&described, all + bytes - sizeof described, sizeof described);
-    if (described > bytes - sizeof described) throw IoError(what + ": the DICOM reading process sent a short answer");
+    if (described > bytes - sizeof described) throw shortAnswerError(what);
     const std::uint64_t voxelBytes = bytes - sizeof described - described;
     DenseVolume v;
     Reader r{all + voxelBytes, std::size_t(described), what};
