@@ -490,8 +490,7 @@ mesh::TriMesh sharpMesh(const std::string& text, float voxel, volume::SharpenSta
     volume::MeshingOptions mo;
     mo.worldSpace = false;
     mesh::TriMesh m = volume::extractIsosurface(*grid, mo);
-    volume::sharpen(
-        m, [&](const glm::vec3& p) { return scene.root->value(p * voxel); }, stats);
+    volume::sharpen(m, volume::pointwise([&](const glm::vec3& p) { return scene.root->value(p * voxel); }), stats);
     for (auto& p : m.positions) p *= voxel;
     return m;
 }

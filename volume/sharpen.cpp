@@ -4,15 +4,14 @@
 
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <cmath>
-#include <map>
-#include <memory>
+#include <limits>
 #include <unordered_map>
 #include <vector>
 
 #include <openvdb/tools/Interpolation.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 #include <glm/geometric.hpp>
 #include <glm/mat3x3.hpp>
 
@@ -43,16 +42,41 @@ Edge edgeOf(const glm::vec3& p) {
     return e;
 }
 
-glm::vec3 gradientAt(const IndexField& value, const glm::vec3& p) {
-    constexpr float h = 1e-3f;
-    glm::vec3 g;
+constexpr float kStep = 1e-3f;  // central differences of the field, in voxels
+
+/// The six points of the central differences at p, appended to `out`.
+void appendStencil(const glm::vec3& p, std::vector<glm::vec3>& out) {
     for (int k = 0; k < 3; ++k) {
         glm::vec3 a = p, b = p;
-        a[k] -= h;
-        b[k] += h;
-        g[k] = (value(b) - value(a)) / (2.f * h);
+        a[k] -= kStep;
+        b[k] += kStep;
+        out.push_back(a);
+        out.push_back(b);
     }
-    return g;
+}
+
+/// The gradient from the values at appendStencil's six points.
+glm::vec3 stencilGradient(const float* v) {
+    return glm::vec3(v[1] - v[0], v[3] - v[2], v[5] - v[4]) / (2.f * kStep);
+}
+
+/// An index-space box grown point by point.
+struct Bounds {
+    glm::vec3 lo{std::numeric_limits<float>::infinity()}, hi{-std::numeric_limits<float>::infinity()};
+    void add(const glm::vec3& p) {
+        lo = glm::min(lo, p);
+        hi = glm::max(hi, p);
+    }
+    /// The field there, with room for the central differences around every point added.
+    IndexValues of(const IndexField& field) const { return field(lo - 4.f * kStep, hi + 4.f * kStep); }
+};
+
+/// Batches: vertices, cells and crease candidates are taken this many at a time, neighbours in the
+/// mesh's order (marching cubes writes block by block), so that each batch asks for a small box.
+constexpr std::size_t kBatch = 256;
+
+std::size_t batchCount(std::size_t n) {
+    return (n + kBatch - 1) / kBatch;
 }
 
 /// Eigen-decomposition of a symmetric 3x3 matrix by cyclic Jacobi rotations.
@@ -93,13 +117,15 @@ struct Patch {
 /// edge (the mesh would stop being manifold). Edges in a fixed order, each triangle flipped once.
 std::size_t flipCreases(const std::vector<glm::vec3>& P, std::vector<glm::uvec3>& tris,
                         const std::vector<std::int64_t>& cellOf, unsigned firstApex, std::size_t cellCount,
-                        const IndexField& value) {
+                        const IndexField& field) {
     auto isApex = [&](unsigned v) { return v >= firstApex; };
     auto edgeKey = [](unsigned a, unsigned b) { return (std::uint64_t(std::min(a, b)) << 32) | std::max(a, b); };
+    // Only fan triangles (apex first) matter: a candidate's two triangles are fans, every edge a flip
+    // adds or changes has an apex at one end, and a feature cell holds only its fan.
     std::unordered_map<std::uint64_t, std::array<std::int64_t, 2>> edgeTris;
-    edgeTris.reserve(tris.size() * 2);
     std::vector<std::vector<std::size_t>> inCell(cellCount);
     for (std::size_t t = 0; t < tris.size(); ++t) {
+        if (!isApex(tris[t].x)) continue;
         for (int k = 0; k < 3; ++k) {
             auto [it, added] = edgeTris.try_emplace(edgeKey(tris[t][k], tris[t][(k + 1) % 3]),
                                                     std::array<std::int64_t, 2>{std::int64_t(t), -1});
@@ -124,13 +150,49 @@ std::size_t flipCreases(const std::vector<glm::vec3>& P, std::vector<glm::uvec3>
     auto normalOf = [&](const glm::uvec3& t) {
         return glm::cross(glm::dvec3(P[t.y]) - glm::dvec3(P[t.x]), glm::dvec3(P[t.z]) - glm::dvec3(P[t.x]));
     };
-    auto misfit = [&](const glm::uvec3& t) {  // 1 - cos of the angle to the field's normal at the centre
-        const glm::vec3 centre = (P[t.x] + P[t.y] + P[t.z]) / 3.f;
-        return 1.0 - glm::dot(unit(normalOf(t)), unit(glm::dvec3(gradientAt(value, centre))));
+    // Each candidate's fit before and after (1 - cos of the angle between a triangle's normal and the
+    // field's at its centre, summed over the pair), in batches of neighbouring candidates. A candidate's
+    // two triangles are still its own when its turn comes (a flip changes only its own pair), so the
+    // fits can be found before any flip.
+    auto turnedPair = [&](std::uint64_t key, std::array<glm::uvec3, 4>& out) {  // t1, t2, n1, n2
+        const auto ts = edgeTris.at(key);
+        const glm::uvec3 t1 = tris[std::size_t(ts[0])], t2 = tris[std::size_t(ts[1])];
+        // t1 = (c1, a, b) runs a -> b; t2 = (c2, b, a).
+        if (!isApex(t1.x) || !isApex(t2.x) || !(t2.y == t1.z && t2.z == t1.y)) return false;
+        out = {t1, t2, glm::uvec3(t1.x, t1.y, t2.x), glm::uvec3(t1.x, t2.x, t1.z)};
+        return true;
     };
+    std::vector<std::array<double, 2>> fit(candidates.size(), {0.0, 0.0});  // before, after
+    tbb::parallel_for(std::size_t{0}, batchCount(candidates.size()), [&](std::size_t batch) {
+        const std::size_t begin = batch * kBatch, end = std::min(candidates.size(), begin + kBatch);
+        std::vector<glm::vec3> pts;
+        std::vector<std::array<glm::uvec3, 4>> pairs(end - begin);
+        std::vector<char> ok(end - begin, 0);
+        Bounds box;
+        for (std::size_t c = begin; c < end; ++c) {
+            if (!(ok[c - begin] = turnedPair(candidates[c], pairs[c - begin]))) continue;
+            for (const glm::uvec3& t : pairs[c - begin]) {
+                const glm::vec3 centre = (P[t.x] + P[t.y] + P[t.z]) / 3.f;
+                box.add(centre);
+                appendStencil(centre, pts);
+            }
+        }
+        if (pts.empty()) return;
+        std::vector<float> v(pts.size());
+        box.of(field)(pts, v);
+        const float* g = v.data();
+        for (std::size_t c = begin; c < end; ++c) {
+            if (!ok[c - begin]) continue;
+            double misfit[4];
+            for (int k = 0; k < 4; ++k, g += 6)
+                misfit[k] = 1.0 - glm::dot(unit(normalOf(pairs[c - begin][k])), unit(glm::dvec3(stencilGradient(g))));
+            fit[c] = {misfit[0] + misfit[1], misfit[2] + misfit[3]};
+        }
+    });
     std::vector<char> flipped(tris.size(), 0);
     std::size_t flips = 0;
-    for (const std::uint64_t key : candidates) {
+    for (std::size_t c = 0; c < candidates.size(); ++c) {
+        const std::uint64_t key = candidates[c];
         const auto ts = edgeTris.at(key);
         if (ts[1] < 0) continue;
         const std::size_t i1 = std::size_t(ts[0]), i2 = std::size_t(ts[1]);
@@ -144,7 +206,7 @@ std::size_t flipCreases(const std::vector<glm::vec3>& P, std::vector<glm::uvec3>
         const glm::uvec3 n1(c1, a, c2), n2(c1, c2, b);
         const glm::dvec3 before = unit(normalOf(t1) + normalOf(t2));
         if (!(glm::dot(unit(normalOf(n1)), before) > 0.2 && glm::dot(unit(normalOf(n2)), before) > 0.2)) continue;
-        if (!(misfit(n1) + misfit(n2) < misfit(t1) + misfit(t2) - 1e-4)) continue;
+        if (!(fit[c][1] < fit[c][0] - 1e-4)) continue;
         // Exact tests against everything in the two cells (and earlier flips into them).
         bool clash = false;
         auto against = [&](const glm::uvec3& nt) {
@@ -192,47 +254,93 @@ std::size_t flipCreases(const std::vector<glm::vec3>& P, std::vector<glm::uvec3>
 
 }  // namespace
 
-void sharpen(mesh::TriMesh& mesh, const IndexField& value, SharpenStats* statsOut) {
+void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOut) {
     SharpenStats stats;
     auto& P = mesh.positions;
     const std::size_t nv = P.size();
 
-    // 1. Exact crossings: each vertex moved onto the field's zero along its edge.
+    // 1. Exact crossings: each vertex moved onto the field's zero along its edge (regula falsi, Illinois
+    // variant, the searches of a batch of vertices in step), then the field's gradient at each vertex.
     std::vector<Edge> edges(nv);
     std::vector<char> moved(nv, 0);
-    tbb::parallel_for(std::size_t{0}, nv, [&](std::size_t i) {
-        const Edge e = edgeOf(P[i]);
-        edges[i] = e;
-        glm::vec3 a(e.corner), b(e.corner);
-        b[e.axis] += 1.f;
-        float fa = value(a), fb = value(b);
-        if (!(fa * fb < 0.f)) return;  // the field does not cross here (the grid's sign differs): keep
-        float ta = 0.f, tb = 1.f;
-        int side = 0;
-        float t = 0.5f;
-        for (int it = 0; it < 24; ++it) {  // regula falsi, Illinois variant
-            t = (ta * fb - tb * fa) / (fb - fa);
-            if (!(t > ta && t < tb)) t = 0.5f * (ta + tb);
-            glm::vec3 q = a;
-            q[e.axis] += t;
-            const float ft = value(q);
-            if (ft == 0.f || tb - ta < 1e-6f) break;
-            if ((ft < 0.f) == (fa < 0.f)) {
-                ta = t;
-                fa = ft;
-                if (side == -1) fb *= 0.5f;
-                side = -1;
-            } else {
-                tb = t;
-                fb = ft;
-                if (side == 1) fa *= 0.5f;
-                side = 1;
-            }
+    std::vector<glm::vec3> gradient(nv);
+    tbb::parallel_for(std::size_t{0}, batchCount(nv), [&](std::size_t batch) {
+        const std::size_t begin = batch * kBatch, end = std::min(nv, begin + kBatch), n = end - begin;
+        Bounds box;
+        for (std::size_t i = begin; i < end; ++i) {
+            edges[i] = edgeOf(P[i]);
+            glm::vec3 b(edges[i].corner);
+            box.add(b);
+            b[edges[i].axis] += 1.f;
+            box.add(b);
         }
-        t = std::clamp(t, kMargin, 1.f - kMargin);
-        P[i] = a;
-        P[i][e.axis] += t;
-        moved[i] = 1;
+        const IndexValues values = box.of(field);
+        auto pointOn = [&](std::size_t i, float t) {
+            glm::vec3 q(edges[i].corner);
+            q[edges[i].axis] += t;
+            return q;
+        };
+        std::vector<glm::vec3> pts;
+        pts.reserve(6 * n);
+        for (std::size_t i = begin; i < end; ++i) {
+            pts.push_back(pointOn(i, 0.f));
+            pts.push_back(pointOn(i, 1.f));
+        }
+        std::vector<float> v(pts.size());
+        values(pts, v);
+        struct Search {
+            float ta = 0.f, tb = 1.f, fa, fb, t = 0.5f;
+            int side = 0;
+        };
+        std::vector<Search> search(n);
+        std::vector<std::size_t> active;  // offsets in the batch
+        for (std::size_t j = 0; j < n; ++j) {
+            search[j].fa = v[2 * j];
+            search[j].fb = v[2 * j + 1];
+            // Where the field does not cross (the grid's sign differs), the vertex stays.
+            if (search[j].fa * search[j].fb < 0.f) active.push_back(j);
+        }
+        const std::vector<std::size_t> crossing = active;
+        for (int it = 0; it < 24 && !active.empty(); ++it) {
+            pts.clear();
+            for (std::size_t j : active) {
+                Search& s = search[j];
+                s.t = (s.ta * s.fb - s.tb * s.fa) / (s.fb - s.fa);
+                if (!(s.t > s.ta && s.t < s.tb)) s.t = 0.5f * (s.ta + s.tb);
+                pts.push_back(pointOn(begin + j, s.t));
+            }
+            v.resize(pts.size());
+            values(pts, v);
+            std::size_t kept = 0;
+            for (std::size_t k = 0; k < active.size(); ++k) {
+                Search& s = search[active[k]];
+                const float ft = v[k];
+                if (ft == 0.f || s.tb - s.ta < 1e-6f) continue;  // found
+                if ((ft < 0.f) == (s.fa < 0.f)) {
+                    s.ta = s.t;
+                    s.fa = ft;
+                    if (s.side == -1) s.fb *= 0.5f;
+                    s.side = -1;
+                } else {
+                    s.tb = s.t;
+                    s.fb = ft;
+                    if (s.side == 1) s.fa *= 0.5f;
+                    s.side = 1;
+                }
+                active[kept++] = active[k];
+            }
+            active.resize(kept);
+        }
+        for (std::size_t j : crossing) {
+            P[begin + j] = pointOn(begin + j, std::clamp(search[j].t, kMargin, 1.f - kMargin));
+            moved[begin + j] = 1;
+        }
+        // The field's normal at every crossing (the Hermite data of step 3), once per vertex.
+        pts.clear();
+        for (std::size_t i = begin; i < end; ++i) appendStencil(P[i], pts);
+        v.resize(pts.size());
+        values(pts, v);
+        for (std::size_t j = 0; j < n; ++j) gradient[begin + j] = stencilGradient(&v[6 * j]);
     });
     for (char m : moved) stats.refinedVertices += m;
 
@@ -251,59 +359,87 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& value, SharpenStats* statsOu
         return (std::uint64_t(std::uint32_t(c.x) & 0x1fffff) << 42) |
                (std::uint64_t(std::uint32_t(c.y) & 0x1fffff) << 21) | std::uint64_t(std::uint32_t(c.z) & 0x1fffff);
     };
-    std::map<std::uint64_t, std::vector<std::size_t>> cells;  // ordered: a deterministic walk
+    std::vector<std::pair<std::uint64_t, std::size_t>> owned;  // (cell, triangle)
+    owned.reserve(mesh.triangles.size());
     std::vector<std::uint64_t> ambiguous;
     for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
         std::array<std::array<glm::ivec3, 4>, 3> c;
         for (int k = 0; k < 3; ++k) cellsOf(mesh.triangles[t][k], c[k]);
-        std::vector<glm::ivec3> common;
+        std::array<glm::ivec3, 4> common;
+        std::size_t n = 0;
         for (const auto& a : c[0])
             if (std::find(c[1].begin(), c[1].end(), a) != c[1].end() &&
                 std::find(c[2].begin(), c[2].end(), a) != c[2].end())
-                common.push_back(a);
-        if (common.empty()) continue;  // not a marching cubes triangle: left alone
-        cells[key(common[0])].push_back(t);
-        for (std::size_t k = 1; k < common.size(); ++k) ambiguous.push_back(key(common[k]));
-        if (common.size() > 1) ambiguous.push_back(key(common[0]));
+                common[n++] = a;
+        if (n == 0) continue;  // not a marching cubes triangle: left alone
+        owned.emplace_back(key(common[0]), t);
+        for (std::size_t k = 1; k < n; ++k) ambiguous.push_back(key(common[k]));
+        if (n > 1) ambiguous.push_back(key(common[0]));
     }
     std::sort(ambiguous.begin(), ambiguous.end());
+    // Cells in key order (a deterministic walk), each with its triangles in mesh order.
+    tbb::parallel_sort(owned.begin(), owned.end());
+    std::vector<std::uint64_t> cellKey;
+    std::vector<std::size_t> cellStart, cellTris(owned.size());
+    for (std::size_t k = 0; k < owned.size(); ++k) {
+        if (k == 0 || owned[k].first != owned[k - 1].first) {
+            cellKey.push_back(owned[k].first);
+            cellStart.push_back(k);
+        }
+        cellTris[k] = owned[k].second;
+    }
+    cellStart.push_back(owned.size());
+    const std::size_t cellCount = cellKey.size();
+    auto trianglesOf = [&](std::size_t ci) {
+        return std::span<const std::size_t>(cellTris.data() + cellStart[ci], cellStart[ci + 1] - cellStart[ci]);
+    };
 
     // 3. Per cell: one patch, its boundary loop, the QEF's point, the checks.
-    std::vector<std::pair<std::uint64_t, std::vector<std::size_t>>> list(cells.begin(), cells.end());
-    std::vector<Patch> patches(list.size());
-    std::vector<glm::vec3> apex(list.size());
-    std::vector<char> result(list.size(), 0);  // 1 feature vertex, 2 flat, 3 kept, 4 several patches
-    tbb::parallel_for(std::size_t{0}, list.size(), [&](std::size_t ci) {
-        const auto& tris = list[ci].second;
-        if (std::binary_search(ambiguous.begin(), ambiguous.end(), list[ci].first)) {
+    std::vector<Patch> patches(cellCount);
+    std::vector<glm::vec3> apex(cellCount);
+    std::vector<char> result(cellCount, 0);  // 1 feature vertex, 2 flat, 3 kept, 4 several patches
+    tbb::parallel_for(std::size_t{0}, cellCount, [&](std::size_t ci) {
+        const std::span<const std::size_t> tris = trianglesOf(ci);
+        // Marching cubes makes at most 5 triangles in a cell.
+        constexpr std::size_t kMaxTriangles = 8;
+        if (tris.size() > kMaxTriangles || std::binary_search(ambiguous.begin(), ambiguous.end(), cellKey[ci])) {
             result[ci] = 4;
             return;
         }
-        // Directed edges; the patch is one disk when the undirected edges connect all triangles and the
-        // unpaired directed edges form one cycle.
-        std::map<std::pair<unsigned, unsigned>, int> directed;
+        // Directed edges; the patch is one disk when no directed edge repeats and the unpaired ones (the
+        // boundary, at most one leaving each vertex) form one cycle.
+        using DirectedEdge = std::pair<unsigned, unsigned>;
+        std::array<DirectedEdge, 3 * kMaxTriangles> directed, next;
+        std::size_t nd = 0, nn = 0;
         for (std::size_t t : tris)
-            for (int k = 0; k < 3; ++k) ++directed[{mesh.triangles[t][k], mesh.triangles[t][(k + 1) % 3]}];
-        std::map<unsigned, unsigned> next;
+            for (int k = 0; k < 3; ++k) directed[nd++] = {mesh.triangles[t][k], mesh.triangles[t][(k + 1) % 3]};
         bool ok = true;
-        for (const auto& [e, n] : directed) {
-            if (n != 1) ok = false;
-            if (directed.count({e.second, e.first})) continue;
-            if (next.count(e.first)) ok = false;
-            next[e.first] = e.second;
+        for (std::size_t i = 0; i < nd && ok; ++i) {
+            const DirectedEdge e = directed[i];
+            bool paired = false;
+            for (std::size_t j = 0; j < nd; ++j) {
+                if (j != i && directed[j] == e) ok = false;
+                if (directed[j] == DirectedEdge{e.second, e.first}) paired = true;
+            }
+            if (paired) continue;
+            for (std::size_t j = 0; j < nn; ++j)
+                if (next[j].first == e.first) ok = false;
+            next[nn++] = e;
         }
-        if (!ok || next.size() < 3) {
+        if (!ok || nn < 3) {
             result[ci] = 4;
             return;
         }
-        std::vector<unsigned> loop{next.begin()->first};
-        while (loop.size() <= next.size()) {
-            auto it = next.find(loop.back());
-            if (it == next.end()) break;
+        std::sort(next.begin(), next.begin() + std::ptrdiff_t(nn));  // the loop starts at its lowest vertex
+        std::vector<unsigned> loop{next[0].first};
+        while (loop.size() <= nn) {
+            const auto it = std::find_if(next.begin(), next.begin() + std::ptrdiff_t(nn),
+                                         [&](const DirectedEdge& e) { return e.first == loop.back(); });
+            if (it == next.begin() + std::ptrdiff_t(nn)) break;
             if (it->second == loop.front()) break;
             loop.push_back(it->second);
         }
-        if (loop.size() != next.size()) {  // several loops: several patches
+        if (loop.size() != nn) {  // several loops: several patches
             result[ci] = 4;
             return;
         }
@@ -319,7 +455,7 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& value, SharpenStats* statsOu
         glm::dmat3 A(0.0);
         glm::dvec3 b(0.0);
         for (unsigned v : loop) {
-            glm::dvec3 n(gradientAt(value, P[v]));
+            glm::dvec3 n(gradient[v]);
             const double len = glm::length(n);
             if (!(len > 0) || !std::isfinite(len)) continue;
             n /= len;
@@ -351,8 +487,12 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& value, SharpenStats* statsOu
         // Hermite data (twice at most), which turns an edge point into the corner.
         for (int probe = 0; probe < 2; ++probe) {
             const glm::vec3 q(mass + x);
-            const float f = value(q);
-            const glm::vec3 gq = gradientAt(value, q);
+            std::vector<glm::vec3> pts{q};
+            appendStencil(q, pts);
+            float v[7];
+            field(q - 4.f * kStep, q + 4.f * kStep)(pts, v);
+            const float f = v[0];
+            const glm::vec3 gq = stencilGradient(v + 1);
             const double len = glm::length(glm::dvec3(gq));
             if (!(len > 0) || !std::isfinite(len)) break;
             const double dist = double(f) / len;  // in voxels
@@ -430,7 +570,7 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& value, SharpenStats* statsOu
             result[ci] = 3;
             return;
         }
-        patches[ci].triangles = tris;
+        patches[ci].triangles.assign(tris.begin(), tris.end());
         patches[ci].loop = std::move(loop);
         apex[ci] = glm::vec3(c);
         result[ci] = 1;
@@ -438,7 +578,7 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& value, SharpenStats* statsOu
 
     // 4. The mesh again, in its order: a sharpened patch's fan where its first triangle was.
     std::vector<std::int64_t> patchOfTriangle(mesh.triangles.size(), -1);
-    for (std::size_t ci = 0; ci < list.size(); ++ci) {
+    for (std::size_t ci = 0; ci < cellCount; ++ci) {
         stats.patches += result[ci] != 4;
         stats.features += result[ci] == 1;
         stats.flat += result[ci] == 2;
@@ -448,14 +588,14 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& value, SharpenStats* statsOu
             for (std::size_t t : patches[ci].triangles) patchOfTriangle[t] = std::int64_t(ci);
     }
     std::vector<glm::uvec3> out;
-    std::vector<std::int64_t> cellOfOut;  // each output triangle's cell (list index), -1 if none
+    std::vector<std::int64_t> cellOfOut;  // each output triangle's cell (its index), -1 if none
     std::vector<std::int64_t> cellOfTriangle(mesh.triangles.size(), -1);
-    for (std::size_t ci = 0; ci < list.size(); ++ci)
-        for (std::size_t t : list[ci].second) cellOfTriangle[t] = std::int64_t(ci);
+    for (std::size_t ci = 0; ci < cellCount; ++ci)
+        for (std::size_t t : trianglesOf(ci)) cellOfTriangle[t] = std::int64_t(ci);
     out.reserve(mesh.triangles.size() + 2 * stats.features);
     const auto firstApex = static_cast<unsigned>(P.size());
     std::vector<std::int64_t> apexCell;
-    std::vector<char> emitted(list.size(), 0);
+    std::vector<char> emitted(cellCount, 0);
     const bool normals = mesh.normals.size() == nv, colors = mesh.colors.size() == nv;
     for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
         const std::int64_t ci = patchOfTriangle[t];
@@ -481,7 +621,7 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& value, SharpenStats* statsOu
             cellOfOut.push_back(ci);
         }
     }
-    stats.flips = flipCreases(P, out, cellOfOut, firstApex, list.size(), value);
+    stats.flips = flipCreases(P, out, cellOfOut, firstApex, cellCount, field);
     mesh.triangles = std::move(out);
     if (statsOut) *statsOut = stats;
 }
@@ -490,28 +630,27 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& value, SharpenStats* statsOu
 
 namespace isoforge::volume {
 
+IndexField pointwise(std::function<float(const glm::vec3&)> value) {
+    return [value = std::move(value)](const glm::vec3&, const glm::vec3&) -> IndexValues {
+        return [&value](std::span<const glm::vec3> p, std::span<float> out) {
+            for (std::size_t i = 0; i < p.size(); ++i) out[i] = value(p[i]);
+        };
+    };
+}
+
 void sharpenWithGrid(mesh::TriMesh& mesh, const openvdb::FloatGrid& grid, float iso, bool insideBelow,
                      SharpenStats* stats) {
     const float sign = insideBelow ? 1.f : -1.f;
-    // One sampler (and its accessor cache) per thread and call.
-    static std::atomic<std::uint64_t> calls{0};
-    const std::uint64_t call = ++calls;
-    auto value = [&grid, iso, sign, call](const glm::vec3& p) {
-        thread_local std::uint64_t owner = 0;
-        thread_local std::unique_ptr<
-            openvdb::tools::GridSampler<openvdb::FloatGrid::ConstAccessor, openvdb::tools::BoxSampler>>
-            s;
-        thread_local std::unique_ptr<openvdb::FloatGrid::ConstAccessor> acc;
-        if (owner != call) {
-            acc = std::make_unique<openvdb::FloatGrid::ConstAccessor>(grid.getConstAccessor());
-            s = std::make_unique<
-                openvdb::tools::GridSampler<openvdb::FloatGrid::ConstAccessor, openvdb::tools::BoxSampler>>(
-                *acc, grid.transform());
-            owner = call;
-        }
-        return sign * (s->isSample(openvdb::Vec3d(p.x, p.y, p.z)) - iso);
+    auto values = [&grid, iso, sign](std::span<const glm::vec3> p, std::span<float> out) {
+        // One accessor (and its cache) per batch: batches run on several threads.
+        const openvdb::FloatGrid::ConstAccessor acc = grid.getConstAccessor();
+        const openvdb::tools::GridSampler<openvdb::FloatGrid::ConstAccessor, openvdb::tools::BoxSampler> s(
+            acc, grid.transform());
+        for (std::size_t i = 0; i < p.size(); ++i)
+            out[i] = sign * (s.isSample(openvdb::Vec3d(p[i].x, p[i].y, p[i].z)) - iso);
     };
-    sharpen(mesh, value, stats);
+    sharpen(
+        mesh, [&values](const glm::vec3&, const glm::vec3&) -> IndexValues { return values; }, stats);
 }
 
 }  // namespace isoforge::volume

@@ -5,6 +5,7 @@
 
 #include <cstddef>
 #include <functional>
+#include <span>
 
 #include <openvdb/openvdb.h>
 #include <glm/vec3.hpp>
@@ -23,9 +24,17 @@ struct SharpenStats {
     std::size_t flips = 0;            ///< edges flipped to follow a crease from feature vertex to feature vertex
 };
 
-/// The field in index space (voxel units): negative inside, zero on the surface. Its gradient is
-/// taken by central differences of `value` 1e-3 voxels apart.
-using IndexField = std::function<float(const glm::vec3&)>;
+/// The field in index space (voxel units) at a batch of points: `out[i]` is the value at `p[i]`,
+/// negative inside, zero on the surface. Called from several threads at once.
+using IndexValues = std::function<void(std::span<const glm::vec3> p, std::span<float> out)>;
+/// The field for points within the index-space box [lo, hi]: a function that gives the field's values
+/// there (a CSG field pruned to the box, say: `implicit::Field::simplify`). Sharpening asks once per
+/// batch of neighbouring vertices or cells and evaluates in batches; gradients are central
+/// differences 1e-3 voxels apart.
+using IndexField = std::function<IndexValues(const glm::vec3& lo, const glm::vec3& hi)>;
+
+/// An IndexField from a function of one point (no pruning; tests and small fields).
+IndexField pointwise(std::function<float(const glm::vec3&)> value);
 
 /// Sharpens `mesh` in place. It must be marching cubes' output in index space (extractIsosurface
 /// with worldSpace = false): vertices on grid edges, triangles within their cells, inside below.
@@ -34,7 +43,7 @@ using IndexField = std::function<float(const glm::vec3&)>;
 /// under 1/10 of the largest dropped, centred on the crossings' mean) as a fan apex, if the point lies
 /// inside the cell and the fan over the patch's boundary is a graph over the patch's plane (no fold).
 /// Otherwise the cell keeps its marching cubes triangles. Deterministic; new vertices are appended.
-void sharpen(mesh::TriMesh& mesh, const IndexField& value, SharpenStats* stats = nullptr);
+void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* stats = nullptr);
 
 /// The same for a grid's iso-surface: Hermite data from the grid's trilinear interpolant (its
 /// crossings and gradient), the inside on the side `insideBelow` says.

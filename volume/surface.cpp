@@ -1,8 +1,10 @@
 #include "volume/surface.h"
 
 #include <stdexcept>
+#include <vector>
 
 #include <tbb/parallel_for.h>
+#include <glm/common.hpp>
 
 namespace isoforge::volume {
 
@@ -44,8 +46,23 @@ mesh::TriMesh meshSurface(const openvdb::FloatGrid& grid, const implicit::FieldP
     if (options.sharp) {
         const openvdb::math::Transform& xform = grid.transform();
         if (field) {
-            auto value = [&field, &xform](const glm::vec3& p) { return field->value(toWorld(xform, p)); };
-            sharpen(m, value, &st.sharpen);
+            // Each batch evaluates the field pruned to its box (CSG children that cannot reach it dropped).
+            auto pruned = [&field, &xform](const glm::vec3& lo, const glm::vec3& hi) -> IndexValues {
+                implicit::Box3 box;
+                for (int c = 0; c < 8; ++c) {
+                    const glm::vec3 w =
+                        toWorld(xform, glm::vec3(c & 1 ? hi.x : lo.x, c & 2 ? hi.y : lo.y, c & 4 ? hi.z : lo.z));
+                    box.min = glm::min(box.min, w);
+                    box.max = glm::max(box.max, w);
+                }
+                const implicit::FieldPtr f = implicit::simplified(field, box);
+                return [f, &xform](std::span<const glm::vec3> p, std::span<float> out) {
+                    std::vector<glm::vec3> world(p.size());
+                    for (std::size_t i = 0; i < p.size(); ++i) world[i] = toWorld(xform, p[i]);
+                    f->values(world, out);
+                };
+            };
+            sharpen(m, pruned, &st.sharpen);
         } else {
             sharpenWithGrid(m, grid, options.isovalue, insideIsBelow(grid, options.inside), &st.sharpen);
         }
