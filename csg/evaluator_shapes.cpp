@@ -1,6 +1,7 @@
 #include <algorithm>
 #include <array>
 #include <cctype>
+#include <charconv>
 #include <cmath>
 
 #include "core/error.h"
@@ -324,7 +325,16 @@ std::optional<FieldPtr> Evaluator::shape2D(const Call& site) {
         if (const Value* pv = a.raw("paths"); pv && pv->kind == Value::Vector)
             for (const auto& q : pv->v) {
                 paths.emplace_back();
-                for (const auto& i : q.v) paths.back().push_back(static_cast<int>(i.n));
+                for (const auto& i : q.v) {
+                    // Checked before the conversion to int: 3e58 is out of range, not undefined behaviour.
+                    if (!(i.n > -1.0 && i.n < double(p.size()))) {
+                        char index[32];
+                        const auto written = std::to_chars(index, index + sizeof index, i.n);
+                        return dropped(site, "polygon: a path names point " + std::string(index, written.ptr) +
+                                                 ", but there are " + std::to_string(p.size()));
+                    }
+                    paths.back().push_back(static_cast<int>(i.n));
+                }
             }
         // isoforge's extension: smooth the outline(s) by curve subdivision before use.
         if (a.has("subdivide")) {

@@ -20,13 +20,20 @@ namespace {
 
 constexpr double kClipperScale = 65536.0;  // OpenSCAD's CLIPPER_SCALE (1 << 16)
 
+/// OpenSCAD converts with IntPoint(cInt, cInt): truncation toward zero. A coordinate past Clipper's
+/// range (2^62 - 1 after scaling), or NaN, becomes 2^62 with its sign, which Clipper's own range check
+/// refuses as it refuses any coordinate past it (converting a larger one to an integer is undefined).
+ClipperLib::cInt toClipper(double v) {
+    constexpr double kPast = 4611686018427387904.0;  // 2^62
+    const double scaled = v * kClipperScale;
+    if (!(std::abs(scaled) < kPast)) return static_cast<ClipperLib::cInt>(scaled < 0 ? -kPast : kPast);
+    return static_cast<ClipperLib::cInt>(scaled);
+}
+
 ClipperLib::Path toPath(const Outline2& o, bool keepOrientation) {
     ClipperLib::Path p;
     p.reserve(o.points.size());
-    // OpenSCAD converts with IntPoint(cInt, cInt): truncation toward zero.
-    for (const glm::dvec2& v : o.points)
-        p.emplace_back(static_cast<ClipperLib::cInt>(v.x * kClipperScale),
-                       static_cast<ClipperLib::cInt>(v.y * kClipperScale));
+    for (const glm::dvec2& v : o.points) p.emplace_back(toClipper(v.x), toClipper(v.y));
     if (!keepOrientation && !ClipperLib::Orientation(p)) std::reverse(p.begin(), p.end());
     return p;
 }

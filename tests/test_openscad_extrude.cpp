@@ -192,6 +192,35 @@ TEST(OpenScadExtrude, HostileSliceCountsAreBounded) {
     EXPECT_NE(s.warnings[0].message.find("the twist is continuous here instead"), std::string::npos);
 }
 
+TEST(OpenScadExtrude, PathIndicesPastIntsRangeAreOutOfRangeLikeAnyOther) {
+    // fuzz_scene: a path index of 3e58 was converted to int (undefined behaviour). It is out of range
+    // like index 99: the polygon is dropped with a warning naming it, and the rest of the scene is kept.
+    auto check = [](const std::string& index) {
+        const auto s = csg::parseScene(
+            "cube(1);\nlinear_extrude(height = 1) polygon(points = [[0, 0], [4, 0], "
+            "[4, 4], [0, 4]], paths = [[0, 1, 2, 3, " +
+                index + "]]);\n",
+            "p.csg");
+        EXPECT_LT(s.root->value(glm::vec3(0.5f)), 0.f) << index;
+        EXPECT_GT(s.root->value(glm::vec3(2.f, 2.f, 0.5f)), 0.f) << index;
+        return s.warnings.size() == 1 ? s.warnings[0].message : std::string("(no single warning)");
+    };
+    for (const auto& [index, shown] :
+         {std::pair{"99", "99"}, {"3e58", "3e+58"}, {"-3e58", "-3e+58"}, {"2147483648", "2147483648"}, {"4.5", "4.5"}})
+        EXPECT_EQ(check(index), std::string("polygon: a path names point ") + shown +
+                                    ", but there are 4: it is empty and ignored, as OpenSCAD does");
+}
+
+TEST(OpenScadExtrude, CoordinatesPastClippersRangeAreRefusedByItsRangeCheck) {
+    // fuzz_scene: 1e19 scaled by 2^16 was converted to a 64-bit integer (undefined behaviour; on x86 the
+    // most negative integer, which Clipper's range check lets through). Clipper refuses coordinates past
+    // 2^62 / 2^16, and OpenSCAD gets nothing from it: the same for 1e14, 1e19, 1e300 and NaN. (The
+    // conversion itself is caught by UBSan when scripts/fuzz.sh replays tests/data/fuzz/scene/.)
+    for (double x : {1e14, 1e19, -1e19, 1e300, std::nan("")})
+        EXPECT_TRUE(csg::polygonProfile({{x, 0}, {1, 0}, {1, 2}}, {}).outlines.empty()) << x;
+    EXPECT_EQ(csg::polygonProfile({{1e13, 0}, {1, 0}, {1, 2}}, {}).outlines.size(), 1u);  // within the range
+}
+
 TEST(OpenScadExtrude, OffsetOfOutlinesAsOpenScadsClipperOffset) {
     auto at = [](const char* scene, float x, float y) {
         return csg::parseScene(std::string("linear_extrude(1) ") + scene, "o.isf").root->value(glm::vec3(x, y, 0.5f));
