@@ -182,7 +182,7 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
         float iso = 0.f;
         int smooth = 0;
         bool normals = false, indexSpace = false, ascii = false, stats = false, labels = false, split = false,
-             sharp = false;
+             sharp = false, noSharp = false;
         double maxError = 0;
         FieldInput field;
         VolumeInput volume;
@@ -220,9 +220,15 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                     "Which side is solid: below (level sets), above (fog, density, CT) or auto (by grid class)")
         ->check(CLI::IsMember({"auto", "below", "above"}));
     cmd->add_flag("--normals", a->normals, "Write per-vertex normals from the grid gradient");
-    cmd->add_flag("--sharp", a->sharp,
-                  "Feature vertices on sharp edges and corners (Hermite data from the field, or the grid's gradient); "
-                  "still closed, manifold, oriented and free of self-intersections");
+    auto* sharpFlag =
+        cmd->add_flag("--sharp", a->sharp,
+                      "Feature vertices on sharp edges and corners (Hermite data from the field, or the grid's "
+                      "gradient); still closed, manifold, oriented and free of self-intersections. The default for "
+                      "OpenSCAD models (.scad, .csg)");
+    cmd->add_flag("--no-sharp", a->noSharp,
+                  "Plain marching cubes for an OpenSCAD model too: about twice as fast, edges and corners cut by up "
+                  "to a voxel")
+        ->excludes(sharpFlag);
     cmd->add_option("--max-error", a->maxError,
                     "Simplify: collapse edges while every vertex of the full mesh stays within this distance (world "
                     "units) of the result; closed, manifold, oriented, no self-intersections")
@@ -255,7 +261,9 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                                                 : volume::InsideSide::Auto;
             opt.normals = a->normals;
             opt.indexSpace = a->indexSpace;
-            opt.sharp = a->sharp;
+            // OpenSCAD's solids are polyhedra, every edge sharp: feature vertices unless asked not to.
+            const bool sharp = a->sharp || (!a->noSharp && field && isOpenScadModel(a->input));
+            opt.sharp = sharp;
             opt.maxError = a->maxError;
             opt.progress = g.quiet ? nullptr : &progress;
             volume::SurfaceStats surface;
@@ -280,7 +288,7 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                             withCommas(m.vertexCount()).c_str(), withCommas(m.triangleCount()).c_str(), meshSeconds,
                             a->output.c_str());
             }
-            if (a->sharp && !g.quiet)
+            if (sharp && !g.quiet)
                 std::printf(
                     "sharp: %s feature vertices, %s crease flips (%s flat patches, %s kept as marching cubes made "
                     "them, %s cells with several patches; %s crossings on the field's zero)\n",
@@ -301,7 +309,7 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                             writeSeconds);
                 std::printf("leaves %s, blocks visited %s, blocks with surface %s\n", withCommas(stats.leaves).c_str(),
                             withCommas(stats.blocks).c_str(), withCommas(stats.surfaceBlocks).c_str());
-                std::cout << mesh::check(m, {.selfIntersections = a->sharp || a->maxError > 0}).toString();
+                std::cout << mesh::check(m, {.selfIntersections = sharp || a->maxError > 0}).toString();
             }
             return 0;
         };

@@ -52,6 +52,11 @@ bool isSceneFile(const std::string& file) {
     return ext == ".isf" || ext == ".csg" || ext == ".scad";
 }
 
+bool isOpenScadModel(const std::string& file) {
+    const std::string ext = extensionOf(file);
+    return ext == ".csg" || ext == ".scad";
+}
+
 bool namesField(const std::string& file, const FieldInput& in) {
     if (!in.shape.empty() || !in.expr.empty()) return true;
     return extensionOf(file) == ".vm" || isSceneFile(file);

@@ -29,6 +29,8 @@ void addFieldOptions(CLI::App* cmd, FieldInput& in, bool sampling);
 
 /// True for scene files (.isf, .csg, .scad).
 bool isSceneFile(const std::string& file);
+/// .csg or .scad: an OpenSCAD model (its solids are polyhedra, with sharp edges).
+bool isOpenScadModel(const std::string& file);
 
 /// True if the command's input is a field rather than a volume file.
 bool namesField(const std::string& file, const FieldInput& in);

@@ -11,7 +11,8 @@ its volume is within 0.5% of OpenSCAD's and each side of its bounding box within
   bench/openscad_corpus.py --fast                # the subset the tests run (tests/data/openscad_fast.txt)
   bench/openscad_corpus.py a.scad b.scad         # given models
 Options: --isoforge PATH, --cache DIR (exports are kept there and reused), --timeout S (OpenSCAD's
-STL export per model, default 120), --markdown (the table as Markdown, for docs/openscad.md).
+STL export per model, default 120), --markdown (the table as Markdown, for docs/openscad.md), --no-sharp
+(plain marching cubes instead of the default feature vertices).
 Exit status: 0 when every supported model passes, 1 otherwise, 2 for a bad command line.
 """
 import argparse
@@ -179,7 +180,8 @@ def check_model(scad, args):
     voxel = float(max(hi - lo)) / 256.0
     out = base + ".iso.ply"
     source = base + ".abs.csg" if os.path.exists(base + ".abs.csg") else base + ".csg"
-    rc, log, t = run([args.isoforge, "mesh", source, "--voxel", "%.9g" % voxel, "-o", out, "--quiet"], 600)
+    rc, log, t = run([args.isoforge, "mesh", source, "--voxel", "%.9g" % voxel, "-o", out, "--quiet"] +
+                     (["--no-sharp"] if args.no_sharp else []), 600)
     row["isoforge_s"] = t
     if rc != 0:
         msg = log.strip().splitlines()[0] if log.strip() else ""
@@ -214,6 +216,7 @@ def main():
     ap.add_argument("--cache", default=os.path.join(ROOT, "build/openscad-corpus"))
     ap.add_argument("--timeout", type=float, default=120)
     ap.add_argument("--markdown", action="store_true")
+    ap.add_argument("--no-sharp", action="store_true")
     args = ap.parse_args()
     if subprocess.run(["which", "openscad"], capture_output=True).returncode != 0:
         print("openscad_corpus: openscad is not installed (Debian package openscad)", file=sys.stderr)

@@ -276,6 +276,17 @@ grep -q "feature vertices" "$tmp/out" && ok || bad "mesh --sharp: no summary of 
 expect_exit 0 "check --self-intersections --strict (sharp)" "$bin" check --strict --self-intersections "$tmp/holed.ply"
 expect_exit 0 "mesh --sharp (grid)" "$bin" mesh "$src/data/sphere.vdb" --sharp -o "$tmp/sphere_sharp.ply"
 expect_exit 0 "check --self-intersections --strict (sharp grid)" "$bin" check --strict --self-intersections "$tmp/sphere_sharp.ply"
+# OpenSCAD models (.csg, .scad) get feature vertices by default, our scenes do not; --no-sharp turns them
+# off; --sharp with --no-sharp is a usage error.
+expect_exit 0 "mesh (.csg: sharp by default)" "$bin" mesh "$tmp/holed.csg" --resolution 48 -o "$tmp/holed_default.ply"
+cmp -s "$tmp/holed.ply" "$tmp/holed_default.ply" && ok || bad "a .csg is not meshed as with --sharp by default"
+expect_exit 0 "mesh --no-sharp (.csg)" "$bin" mesh "$tmp/holed.csg" --no-sharp --resolution 48 -o "$tmp/holed_plain.ply"
+grep -q "feature vertices" "$tmp/out" && bad "--no-sharp: feature vertices still made" || ok
+cmp -s "$tmp/holed.ply" "$tmp/holed_plain.ply" && bad "--no-sharp: the same mesh as --sharp" || ok
+cp "$tmp/holed.csg" "$tmp/holed.isf"
+expect_exit 0 "mesh (.isf: plain by default)" "$bin" mesh "$tmp/holed.isf" --resolution 48 -o "$tmp/holed_isf.ply"
+cmp -s "$tmp/holed_plain.ply" "$tmp/holed_isf.ply" && ok || bad "an .isf scene is not meshed plain by default"
+expect_exit 2 "mesh --sharp --no-sharp" "$bin" mesh "$tmp/holed.csg" --sharp --no-sharp -o "$tmp/x.ply"
 printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nv .2 .2 -.5\nv .2 .2 .5\nv .9 .9 .2\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\nf 5 6 7\n' >"$tmp/pierced.obj"
 expect_exit 0 "check --self-intersections (pierced)" "$bin" check --self-intersections "$tmp/pierced.obj"
 grep -q "self-intersect  YES" "$tmp/out" && ok || bad "check --self-intersections: the piercing triangle not found"
