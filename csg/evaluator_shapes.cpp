@@ -75,6 +75,9 @@ mesh::NurbsSurface Evaluator::nurbsSurface(const Args& a) {
     ns.degreeU = ns.degreeV = 3;
     if (a.has("degree")) {
         const glm::dvec3 d = a.vec3("degree");
+        // Checked before the conversion to int (and before knots are made for a degree of 10^9).
+        if (!(d.x >= 1 && d.x <= 20 && d.y >= 1 && d.y <= 20))
+            throw a.error("degree", "nurbs() degrees must be from 1 to 20");
         ns.degreeU = static_cast<int>(d.x);
         ns.degreeV = static_cast<int>(d.y);
     } else {

@@ -26,6 +26,13 @@ namespace isoforge::mesh {
 
 namespace {
 
+/// A number from a file as it reads back (shortest round trip: 5, 2.5, 3.3333333333333334e+78), for messages.
+std::string numberText(double v) {
+    char buf[32];
+    const auto end = std::to_chars(buf, buf + sizeof buf, v).ptr;
+    return std::string(buf, end);
+}
+
 using detail::describe;
 using detail::lowerExtension;
 using detail::readWholeFile;
@@ -294,6 +301,11 @@ TriMesh readPly(const std::filesystem::path& path, const std::string& data) {
                 }
                 double countValue = readValue(p.countType);
                 if (countValue < 0) throw IoError(file + ": negative list length in " + what());
+                // An ASCII count can be any number: past 2^32 (the largest a uint count holds) it is refused
+                // before the conversion to an integer (undefined past 2^64).
+                if (!(countValue <= 4294967295.0))
+                    throw IoError(file + ": list length " + numberText(countValue) + " in " + what() +
+                                  " is more than any PLY list holds");
                 auto count = static_cast<std::uint64_t>(countValue);
                 if (k == iface) face.clear();
                 for (std::uint64_t j = 0; j < count; ++j) {
@@ -303,8 +315,8 @@ TriMesh readPly(const std::filesystem::path& path, const std::string& data) {
                         const std::string where = format == Format::Ascii ? ":" + std::to_string(text.line())
                                                                           : ": byte " + std::to_string(bin.position());
                         throw IoError(file + where + ": " + e.name + " " + std::to_string(i) + " names vertex " +
-                                      std::to_string(static_cast<long long>(v)) + ", but there are " +
-                                      std::to_string(mesh.positions.size()) + " vertices");
+                                      numberText(v) + ", but there are " + std::to_string(mesh.positions.size()) +
+                                      " vertices");
                     }
                     face.push_back(static_cast<std::uint32_t>(v));
                 }

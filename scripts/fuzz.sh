@@ -77,8 +77,9 @@ fuzz_scene() {
 fuzz_triangulate() { run triangulate 2048; }
 
 # Mesh readers: a byte for the format (0 PLY, 1 OBJ, 2 STL, 3 OFF), then the file: the first 3 KB of real
-# files, and whole small ones.
+# files, and whole small ones; and its findings (tests/data/fuzz/mesh/), replayed by every run.
 fuzz_mesh_readers() {
+  cp tests/data/fuzz/mesh/* "$seeds"/
   head -c 3000 data/cow.obj | seed 1 cow.obj
   [ -f $shared/meshes/bunny/bunny.ply ] && head -c 3000 $shared/meshes/bunny/bunny.ply | seed 0 bunny.ply
   [ -f $shared/meshes/vase/Vase.stl ] && head -c 3000 $shared/meshes/vase/Vase.stl | seed 2 vase.stl

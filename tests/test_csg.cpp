@@ -171,6 +171,12 @@ TEST(Scene, ErrorsNameFileLineColumnWithACaretAndSeveralAtOnce) {
     // Found by fuzzing: a NaN control point (`0 % 0`) reached the tessellation's welding (UB).
     e = errorOf("x = 1;\nnurbs(degree = [1, 1], points = [[[0, 0, 0], [1, 0, 0]], [[0, 1, 0 % 0], [1, 1, 0]]]);\n");
     EXPECT_NE(e.find("s.isf:2:24: nurbs(): control point 3 of 4 is not finite"), std::string::npos) << e;
+    // A degree past int's range (undefined when converted) or of 10^9 (knots for it: 8 GB) is refused first.
+    for (const char* degree : {"1e30", "1e9", "21", "0.5"}) {
+        e = errorOf(std::string("nurbs(degree = [") + degree +
+                    ", 1], points = [[[0, 0, 0], [1, 0, 0]], [[0, 1, 0], [1, 1, 0]]]);\n");
+        EXPECT_NE(e.find("nurbs() degrees must be from 1 to 20"), std::string::npos) << degree << ": " << e;
+    }
 }
 
 TEST(Scene, RealOpenScadExportsMatchOpenScadsOwnMeshes) {

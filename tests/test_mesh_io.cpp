@@ -111,6 +111,20 @@ TEST(MeshIo, BadFilesNameTheFileAndThePosition) {
          "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
          "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 5\n");
     EXPECT_NE(errorOf(dir / "badidx.ply").find("names vertex 5"), std::string::npos) << errorOf(dir / "badidx.ply");
+    // CI's fuzz_mesh_readers (UBSan): an index of 3.3e78 was converted to long long for this message, and a
+    // list length past 2^64 would have been converted to an integer.
+    const std::string header =
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+        "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+        "end_header\n0 0 0\n1 0 0\n0 1 0\n";
+    spit(dir / "hugeidx.ply",
+         header + "3 0 1 3333333333333333333333333333333333333333333333333333333333333333333333333333331\n");
+    EXPECT_NE(errorOf(dir / "hugeidx.ply").find("hugeidx.ply:12: face 0 names vertex 3.3333333333333334e+78, but"),
+              std::string::npos)
+        << errorOf(dir / "hugeidx.ply");
+    spit(dir / "hugelist.ply", header + "1e30 0 1 2\n");
+    EXPECT_NE(errorOf(dir / "hugelist.ply").find("list length 1e+30"), std::string::npos)
+        << errorOf(dir / "hugelist.ply");
 
     writeMesh(dir / "good.stl", octahedron());
     const std::string stl = slurp(dir / "good.stl");
