@@ -1,10 +1,10 @@
 #include <algorithm>
 #include <array>
 #include <cctype>
-#include <charconv>
 #include <cmath>
 
 #include "core/error.h"
+#include "core/number_text.h"
 #include "csg/evaluator.h"
 #include "csg/nodes.h"
 #include "csg/shapes.h"
@@ -330,12 +330,9 @@ std::optional<FieldPtr> Evaluator::shape2D(const Call& site) {
                 paths.emplace_back();
                 for (const auto& i : q.v) {
                     // Checked before the conversion to int: 3e58 is out of range, not undefined behaviour.
-                    if (!(i.n > -1.0 && i.n < double(p.size()))) {
-                        char index[32];
-                        const auto written = std::to_chars(index, index + sizeof index, i.n);
-                        return dropped(site, "polygon: a path names point " + std::string(index, written.ptr) +
-                                                 ", but there are " + std::to_string(p.size()));
-                    }
+                    if (!(i.n > -1.0 && i.n < double(p.size())))
+                        return dropped(site, "polygon: a path names point " + numberText(i.n) + ", but there are " +
+                                                 std::to_string(p.size()));
                     paths.back().push_back(static_cast<int>(i.n));
                 }
             }

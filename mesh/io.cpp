@@ -19,19 +19,13 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/number_text.h"
 #include "mesh/gltf.h"
 #include "mesh/text_cursor.h"
 
 namespace isoforge::mesh {
 
 namespace {
-
-/// A number from a file as it reads back (shortest round trip: 5, 2.5, 3.3333333333333334e+78), for messages.
-std::string numberText(double v) {
-    char buf[32];
-    const auto end = std::to_chars(buf, buf + sizeof buf, v).ptr;
-    return std::string(buf, end);
-}
 
 using detail::describe;
 using detail::lowerExtension;

@@ -150,28 +150,35 @@ std::size_t flipCreases(const std::vector<glm::vec3>& P, std::vector<glm::uvec3>
     auto normalOf = [&](const glm::uvec3& t) {
         return glm::cross(glm::dvec3(P[t.y]) - glm::dvec3(P[t.x]), glm::dvec3(P[t.z]) - glm::dvec3(P[t.x]));
     };
-    // Each candidate's fit before and after (1 - cos of the angle between a triangle's normal and the
-    // field's at its centre, summed over the pair), in batches of neighbouring candidates. A candidate's
-    // two triangles are still its own when its turn comes (a flip changes only its own pair), so the
-    // fits can be found before any flip.
-    auto turnedPair = [&](std::uint64_t key, std::array<glm::uvec3, 4>& out) {  // t1, t2, n1, n2
-        const auto ts = edgeTris.at(key);
-        const glm::uvec3 t1 = tris[std::size_t(ts[0])], t2 = tris[std::size_t(ts[1])];
-        // t1 = (c1, a, b) runs a -> b; t2 = (c2, b, a).
-        if (!isApex(t1.x) || !isApex(t2.x) || !(t2.y == t1.z && t2.z == t1.y)) return false;
-        out = {t1, t2, glm::uvec3(t1.x, t1.y, t2.x), glm::uvec3(t1.x, t2.x, t1.z)};
-        return true;
+    // Each candidate's turn: its pair t1 = (c1, a, b), t2 = (c2, b, a) and the new pair n1 = (c1, a, c2),
+    // n2 = (c1, c2, b), kept if both new triangles face the old pair's way, with their fits (1 - cos of the
+    // angle between a triangle's normal and the field's at its centre, summed over the pair), in batches of
+    // neighbouring candidates. A candidate's two triangles are still its own when its turn comes (a flip
+    // changes only its own pair), so all of this can be found before any flip.
+    struct Turn {
+        bool ok = false;
+        std::size_t i1 = 0, i2 = 0;
+        std::array<glm::uvec3, 4> tri;  // t1, t2, n1, n2
+        double before = 0, after = 0;
     };
-    std::vector<std::array<double, 2>> fit(candidates.size(), {0.0, 0.0});  // before, after
+    std::vector<Turn> turns(candidates.size());
     tbb::parallel_for(std::size_t{0}, batchCount(candidates.size()), [&](std::size_t batch) {
         const std::size_t begin = batch * kBatch, end = std::min(candidates.size(), begin + kBatch);
         std::vector<glm::vec3> pts;
-        std::vector<std::array<glm::uvec3, 4>> pairs(end - begin);
-        std::vector<char> ok(end - begin, 0);
         Bounds box;
         for (std::size_t c = begin; c < end; ++c) {
-            if (!(ok[c - begin] = turnedPair(candidates[c], pairs[c - begin]))) continue;
-            for (const glm::uvec3& t : pairs[c - begin]) {
+            Turn& u = turns[c];
+            const auto ts = edgeTris.at(candidates[c]);
+            u.i1 = std::size_t(ts[0]);
+            u.i2 = std::size_t(ts[1]);
+            const glm::uvec3 t1 = tris[u.i1], t2 = tris[u.i2];
+            if (!(t2.y == t1.z && t2.z == t1.y)) continue;
+            u.tri = {t1, t2, glm::uvec3(t1.x, t1.y, t2.x), glm::uvec3(t1.x, t2.x, t1.z)};
+            const glm::dvec3 old = unit(normalOf(t1) + normalOf(t2));
+            if (!(glm::dot(unit(normalOf(u.tri[2])), old) > 0.2 && glm::dot(unit(normalOf(u.tri[3])), old) > 0.2))
+                continue;
+            u.ok = true;
+            for (const glm::uvec3& t : u.tri) {
                 const glm::vec3 centre = (P[t.x] + P[t.y] + P[t.z]) / 3.f;
                 box.add(centre);
                 appendStencil(centre, pts);
@@ -182,31 +189,25 @@ std::size_t flipCreases(const std::vector<glm::vec3>& P, std::vector<glm::uvec3>
         box.of(field)(pts, v);
         const float* g = v.data();
         for (std::size_t c = begin; c < end; ++c) {
-            if (!ok[c - begin]) continue;
+            Turn& u = turns[c];
+            if (!u.ok) continue;
             double misfit[4];
             for (int k = 0; k < 4; ++k, g += 6)
-                misfit[k] = 1.0 - glm::dot(unit(normalOf(pairs[c - begin][k])), unit(glm::dvec3(stencilGradient(g))));
-            fit[c] = {misfit[0] + misfit[1], misfit[2] + misfit[3]};
+                misfit[k] = 1.0 - glm::dot(unit(normalOf(u.tri[std::size_t(k)])), unit(glm::dvec3(stencilGradient(g))));
+            u.before = misfit[0] + misfit[1];
+            u.after = misfit[2] + misfit[3];
         }
     });
     std::vector<char> flipped(tris.size(), 0);
     std::size_t flips = 0;
     for (std::size_t c = 0; c < candidates.size(); ++c) {
+        const Turn& u = turns[c];
+        const std::size_t i1 = u.i1, i2 = u.i2;
+        if (!u.ok || flipped[i1] || flipped[i2] || !(u.after < u.before - 1e-4)) continue;
         const std::uint64_t key = candidates[c];
-        const auto ts = edgeTris.at(key);
-        if (ts[1] < 0) continue;
-        const std::size_t i1 = std::size_t(ts[0]), i2 = std::size_t(ts[1]);
-        if (flipped[i1] || flipped[i2]) continue;
-        // t1 = (c1, a, b) runs a -> b; t2 = (c2, b, a).
-        glm::uvec3 t1 = tris[i1], t2 = tris[i2];
-        if (!isApex(t1.x) || !isApex(t2.x)) continue;
-        const unsigned c1 = t1.x, a = t1.y, b = t1.z, c2 = t2.x;
-        if (!(t2.y == b && t2.z == a)) continue;
+        const glm::uvec3 &n1 = u.tri[2], &n2 = u.tri[3];
+        const unsigned c1 = n1.x, a = n1.y, c2 = n1.z, b = n2.z;
         if (edgeTris.count(edgeKey(c1, c2))) continue;
-        const glm::uvec3 n1(c1, a, c2), n2(c1, c2, b);
-        const glm::dvec3 before = unit(normalOf(t1) + normalOf(t2));
-        if (!(glm::dot(unit(normalOf(n1)), before) > 0.2 && glm::dot(unit(normalOf(n2)), before) > 0.2)) continue;
-        if (!(fit[c][1] < fit[c][0] - 1e-4)) continue;
         // Exact tests against everything in the two cells (and earlier flips into them).
         bool clash = false;
         auto against = [&](const glm::uvec3& nt) {
@@ -234,8 +235,8 @@ std::size_t flipCreases(const std::vector<glm::vec3>& P, std::vector<glm::uvec3>
         // Edges: a-b is gone, c1-c2 is new; c1-a... keep their triangles up to date.
         edgeTris.erase(key);
         edgeTris[edgeKey(c1, c2)] = {std::int64_t(i1), std::int64_t(i2)};
-        auto swapIn = [&](unsigned u, unsigned w, std::size_t from, std::size_t to) {
-            auto& e = edgeTris[edgeKey(u, w)];
+        auto swapIn = [&](unsigned p, unsigned q, std::size_t from, std::size_t to) {
+            auto& e = edgeTris[edgeKey(p, q)];
             for (auto& x : e)
                 if (x == std::int64_t(from)) x = std::int64_t(to);
         };
