@@ -2,7 +2,7 @@
 """Sharp features: isoforge mesh (plain marching cubes and --sharp) against OpenSCAD's exact mesh.
 
 For each model (bench/sharp/*.scad and OpenSCAD's example001 at $fn = 96): `openscad -o ref.stl`, then
-`isoforge mesh model.scad --resolution 256` with and without --sharp, `isoforge compare` against the
+`isoforge mesh model.scad --resolution 256` with --no-sharp and --sharp, `isoforge compare` against the
 reference (distance of points sampled on the reference's sharp edges to our mesh, Hausdorff, mean surface
 distance, in voxels) and `isoforge check --self-intersections`. Prints a Markdown table.
 
@@ -61,8 +61,8 @@ def main():
             out = os.path.join(tmp, "%s_%s.ply" % (name, mode))
             cmd = [args.isoforge, "mesh", model, "--voxel", repr(voxel), "-o", out, "--quiet"]
             cmd += [a for d in zip(["-D"] * (len(defs) // 2), defs[1::2]) for a in d]
-            if mode == "sharp":
-                cmd.append("--sharp")
+            # Both modes named: OpenSCAD models get feature vertices by default.
+            cmd.append("--sharp" if mode == "sharp" else "--no-sharp")
             _, seconds = run(cmd)
             cmp, _ = run([args.isoforge, "compare", out, ref, "--voxel", repr(voxel)])
             chk, _ = run([args.isoforge, "check", out, "--self-intersections"])
