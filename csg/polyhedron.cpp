@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <numeric>
 #include <queue>
@@ -328,8 +329,15 @@ private:
     }
 
     bool inside(const glm::vec3& q, const Closest& c, std::uint32_t tri) const {
-        // On the surface (within float rounding: grid samples on a face lying in a grid plane): as the winding number
-        // signs them, so that a part thinner than a voxel keeps the samples on its faces.
+        // On the surface within the rounding of the point's coordinates (a grid sample on OpenSCAD's integer corner,
+        // edge or face): inside, the solid being closed, so that an apex or an edge on a sample is not cut a voxel
+        // short. The band is a few units in the last place, far inside the sharpening's probes (a thousandth of a
+        // voxel for points under two thousand voxels from the origin), so the gradient near the surface stays true.
+        const float ulps =
+            4.f * std::numeric_limits<float>::epsilon() * std::max({std::abs(q.x), std::abs(q.y), std::abs(q.z)});
+        if (c.d2 <= ulps * ulps) return true;
+        // Near the surface (grid samples on a face lying in a grid plane): as the winding number signs them, so that
+        // a part thinner than a voxel keeps the samples on its faces.
         if (facesOnly_ && (c.feature != kFace || c.d2 <= onSurface2_)) return windingNumberInside(q);
         if (pseudonormals_) {
             const glm::uvec3& t = t_[tri];

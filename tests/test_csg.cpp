@@ -466,6 +466,33 @@ TEST(OpenScad, FlippedAndOpenPolyhedraAsOpenScadTakesThem) {
     EXPECT_GT(meshVolume(issue964, 0.25f), 100.0);  // meshVolume checks it is closed
 }
 
+TEST(OpenScad, ApexesOnGridSamplesAreKept) {
+    // OpenSCAD's example011 (a user's polyhedron) and issue2259 (an extrusion scaled to a point, a generated
+    // mesh): the apex lies exactly on a grid sample. Counted outside (a zero), it was cut a voxel short; the
+    // field says "on the surface, inside" with -0, and the grid keeps it.
+    const float voxel = 20.f / 256.f;
+    auto topOf = [&](const std::string& text, int components) {
+        const auto scene = csg::parseScene(text, "apex.csg");
+        volume::SampleOptions o;
+        o.voxelSize = voxel;
+        const mesh::TriMesh m = volume::extractIsosurface(*volume::sample(scene.root, o));
+        const auto r = test::expectClosedSurface(m, text);
+        EXPECT_EQ(r.components, std::size_t(components)) << text;
+        float top = -1e9f;
+        for (const glm::vec3& p : m.positions) top = std::max(top, p.z);
+        return top;
+    };
+    EXPECT_GT(topOf("polyhedron(points = [[10,10,0],[10,-10,0],[-10,-10,0],[-10,10,0],[0,0,10]],"
+                    " faces = [[0,1,4],[1,2,4],[2,3,4],[3,0,4],[1,0,3],[2,1,3]]);",
+                    1),
+              10.f - 0.01f * voxel);
+    EXPECT_GT(topOf("linear_extrude(height = 10, scale = [0, 0], slices = 2) polygon([[20, 0], [0, 10], [0, -10]]);"
+                    "translate([0, 30, 0]) linear_extrude(height = 10, scale = [1, 0], slices = 1)"
+                    " polygon([[20, 0], [0, 10], [0, -10]]);",
+                    2),
+              10.f - 0.01f * voxel);
+}
+
 TEST(OpenScad, NonPlanarFacesSplitAlongOpenScadsDiagonals) {
     // OpenSCAD's issue 1061: a twisted stack of non-planar quads. OpenSCAD (libtess2) splits each
     // along its constrained Delaunay diagonal in libtess2's projection; its STL holds 1876.80.
