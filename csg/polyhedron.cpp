@@ -114,8 +114,7 @@ public:
     }
     float value(const glm::vec3& q) const override {
         const auto [c, tri] = closest(q);
-        const float d = std::sqrt(c.d2);
-        return inside(q, c, tri) ? -d : d;
+        return signedDistance(inside(q, c, tri), std::sqrt(c.d2));
     }
     /// Batches (an 8^3 block at a time when sampling): distances per point; where the sign comes from
     /// the winding number, a point inside the surface-free ball of an earlier point of the batch
@@ -134,8 +133,7 @@ public:
         if (pseudonormals_ && !facesOnly_) {
             for (std::size_t i = 0; i < p.size(); ++i) {
                 const auto [c, tri] = closestOf(p[i]);
-                const float d = std::sqrt(c.d2);
-                out[i] = inside(p[i], c, tri) ? -d : d;
+                out[i] = signedDistance(inside(p[i], c, tri), std::sqrt(c.d2));
             }
             return;
         }
@@ -156,7 +154,7 @@ public:
                 }
             }
             in[i] = known >= 0 ? bool(in[std::size_t(known)]) : inside(p[i], c, tri);
-            out[i] = in[i] ? -d : d;
+            out[i] = signedDistance(in[i], d);
         }
     }
     Interval bound(const Box3& b) const override {
@@ -328,6 +326,9 @@ private:
         return {best, bestTri};
     }
 
+    /// A point on the surface that is inside (see inside()) is the least negative normal float, not -0: marching
+    /// cubes counts 0 as outside, and the value stays negative through scales and transforms.
+    static float signedDistance(bool in, float d) { return in ? -std::max(d, std::numeric_limits<float>::min()) : d; }
     bool inside(const glm::vec3& q, const Closest& c, std::uint32_t tri) const {
         // On the surface within the rounding of the point's coordinates (a grid sample on OpenSCAD's integer corner,
         // edge or face): inside, the solid being closed, so that an apex or an edge on a sample is not cut a voxel

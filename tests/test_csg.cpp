@@ -469,7 +469,8 @@ TEST(OpenScad, FlippedAndOpenPolyhedraAsOpenScadTakesThem) {
 TEST(OpenScad, ApexesOnGridSamplesAreKept) {
     // OpenSCAD's example011 (a user's polyhedron) and issue2259 (an extrusion scaled to a point, a generated
     // mesh): the apex lies exactly on a grid sample. Counted outside (a zero), it was cut a voxel short; the
-    // field says "on the surface, inside" with -0, and the grid keeps it.
+    // field now says "on the surface, inside" with the least negative float. A zero from a difference's
+    // negation (-0) stays outside: issue1165's cube minus two cubes 8.8e-11 apart keeps no sheet between them.
     const float voxel = 20.f / 256.f;
     auto topOf = [&](const std::string& text, int components) {
         const auto scene = csg::parseScene(text, "apex.csg");
@@ -491,6 +492,17 @@ TEST(OpenScad, ApexesOnGridSamplesAreKept) {
                     " polygon([[20, 0], [0, 10], [0, -10]]);",
                     2),
               10.f - 0.01f * voxel);
+    const auto scene = csg::parseScene(
+        "difference() { cube(10, center = true);"
+        " translate([6, 5.5, 0]) cube(11, center = true);"
+        " translate([6, -5.500000000088, 0]) cube(11, center = true); }",
+        "issue1165.csg");
+    volume::SampleOptions o;
+    o.voxelSize = 10.9f / 256.f;
+    const mesh::TriMesh m = volume::extractIsosurface(*volume::sample(scene.root, o));
+    float right = -1e9f;
+    for (const glm::vec3& p : m.positions) right = std::max(right, p.x);
+    EXPECT_LT(right, 0.5f + o.voxelSize);
 }
 
 TEST(OpenScad, NonPlanarFacesSplitAlongOpenScadsDiagonals) {

@@ -4,7 +4,6 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
-#include <limits>
 #include <sstream>
 #include <stdexcept>
 #include <vector>
@@ -81,9 +80,8 @@ public:
             glm::vec3(origin.x() + size - 1, origin.y() + size - 1, origin.z() + size - 1) * voxel_ + glm::vec3(m)};
         const implicit::Interval b = f->bound(box);
         ++out.bounds;
-        // All outside (or beyond the band): background. A bound of 0 may hold a -0, inside (below).
-        if (distance_ ? b.lo >= band_ : b.lo > 0.f) return;
         const float outsideAbove = distance_ ? band_ : 0.f;
+        if (b.lo >= outsideAbove) return;           // all outside (or beyond the band): background
         if (b.hi <= -outsideAbove && b.hi < 0.f) {  // all inside: tiles
             if (size == kTop)
                 out.tiles.push_back({origin, 2});
@@ -223,10 +221,6 @@ openvdb::FloatGrid::Ptr sample(const FieldPtr& field, const SampleOptions& o, Sa
             for (int i = 0; i < 512; ++i) {
                 float v = values[i];
                 if (std::isnan(v)) v = background;  // outside the field's domain (sqrt of negatives...)
-                // A field that finds a sample exactly on its surface says with the sign of its zero which side the
-                // sample belongs to (a polyhedron's apex or edge on OpenSCAD's integer corners is in the solid). The
-                // grid keeps that side as the least negative value, which marching cubes counts as inside.
-                if (v == 0.f && std::signbit(v)) v = -std::numeric_limits<float>::denorm_min();
                 inside = inside && v < 0.f;
                 if (!stats.distance || std::abs(v) < background) {
                     leaf->setValueOn(static_cast<openvdb::Index>(i), v);
