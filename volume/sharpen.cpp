@@ -290,7 +290,7 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
         std::vector<float> v(pts.size());
         values(pts, v);
         struct Search {
-            float ta = 0.f, tb = 1.f, fa, fb, t = 0.5f;
+            float ta = 0.f, tb = 1.f, fa, fb, t = 0.5f, tolerance;
             int side = 0;
         };
         std::vector<Search> search(n);
@@ -298,6 +298,7 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
         for (std::size_t j = 0; j < n; ++j) {
             search[j].fa = v[2 * j];
             search[j].fb = v[2 * j + 1];
+            search[j].tolerance = 1e-5f * (std::abs(search[j].fa) + std::abs(search[j].fb));
             // Where the field does not cross (the grid's sign differs), the vertex stays.
             if (search[j].fa * search[j].fb < 0.f) active.push_back(j);
         }
@@ -316,7 +317,9 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
             for (std::size_t k = 0; k < active.size(); ++k) {
                 Search& s = search[active[k]];
                 const float ft = v[k];
-                if (ft == 0.f || s.tb - s.ta < 1e-6f) continue;  // found
+                // Found: within 1e-5 of the ends' values of the zero (for a distance, 1e-5 of a voxel), which takes
+                // in a surface as a field marks it (a polyhedron's least negative float within a few ulps of it).
+                if (std::abs(ft) <= s.tolerance || s.tb - s.ta < 1e-6f) continue;
                 if ((ft < 0.f) == (s.fa < 0.f)) {
                     s.ta = s.t;
                     s.fa = ft;
