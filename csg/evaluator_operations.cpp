@@ -186,7 +186,7 @@ std::optional<FieldPtr> Evaluator::operation(const Call& site) {
         if (!b.isBounded()) throw a.error("newsize", "resize() needs a bounded child");
         const glm::dvec3 size(b.size());
         // OpenSCAD: a positive new size scales its axis (about the origin); with auto, the axes left
-        // at 0 take the smallest of the given scale factors.
+        // at 0 take the scale factor of the largest new size (the first of equals), as OpenSCAD's resize.
         glm::bvec3 autos(false);
         if (const Value* av = a.raw("auto"); av && av->kind == Value::Vector) {
             for (std::size_t k = 0; k < std::min<std::size_t>(3, av->v.size()); ++k) autos[int(k)] = av->v[k].truthy();
@@ -194,14 +194,14 @@ std::optional<FieldPtr> Evaluator::operation(const Call& site) {
             autos = glm::bvec3(av->truthy());
         }
         glm::dvec3 f(1.0);
-        double smallest = HUGE_VAL;
+        int largest = 0;
+        for (int k = 0; k < 3; ++k) {
+            if (ns[k] > 0 && size[k] > 0) f[k] = ns[k] / size[k];
+            if (ns[k] > ns[largest]) largest = k;
+        }
+        const double autoScale = f[largest];
         for (int k = 0; k < 3; ++k)
-            if (ns[k] > 0 && size[k] > 0) {
-                f[k] = ns[k] / size[k];
-                smallest = std::min(smallest, f[k]);
-            }
-        for (int k = 0; k < 3; ++k)
-            if (!(ns[k] > 0) && autos[k] && std::isfinite(smallest)) f[k] = smallest;
+            if (!(ns[k] > 0) && autos[k]) f[k] = autoScale;
         const glm::dmat4 m = glm::scale(glm::dmat4(1.0), f);
         return carried(implicit::makeTransformed(g, glm::mat4(m)), {g}, &m);
     }

@@ -505,6 +505,16 @@ TEST(OpenScad, ApexesOnGridSamplesAreKept) {
     EXPECT_LT(right, 0.5f + o.voxelSize);
 }
 
+TEST(OpenScad, ResizeAutoTakesTheScaleOfTheLargestNewSize) {
+    // OpenSCAD's resize-tests (lime and purple rows): with auto, an axis left at 0 takes the scale factor of the
+    // largest new size, the first of equals. Volumes of OpenSCAD 2021.01's STLs of the same lines.
+    EXPECT_NEAR(meshVolume("resize([5, 0, 20], auto = [false, true, true]) cube(9);", 0.25f), 2000.0, 6.0);
+    EXPECT_NEAR(meshVolume("resize([20, 0, 5], auto = [false, true, true]) cube(9);", 0.25f), 2000.0, 6.0);
+    EXPECT_NEAR(meshVolume("resize([5, 0, 20], auto = true) cube([1, 2, 3]);", 0.25f), 4000.0 / 3.0, 4.0);
+    EXPECT_NEAR(meshVolume("resize([5, 0, 5], auto = true) cube([1, 2, 3]);", 0.05f), 250.0, 0.5);
+    EXPECT_NEAR(meshVolume("resize([7, 0, 7], auto = [false, true, true]) cube(1);", 0.05f), 343.0, 0.5);
+}
+
 TEST(OpenScad, NonPlanarFacesSplitAlongOpenScadsDiagonals) {
     // OpenSCAD's issue 1061: a twisted stack of non-planar quads. OpenSCAD (libtess2) splits each
     // along its constrained Delaunay diagonal in libtess2's projection; its STL holds 1876.80.
