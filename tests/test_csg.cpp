@@ -28,11 +28,13 @@ struct Init {
     Init() { volume::initializeOpenVdb(); }
 } init;
 
-mesh::MeshReport meshScene(const implicit::FieldPtr& f, float voxel) {
+mesh::TriMesh meshOf(const implicit::FieldPtr& f, float voxel) {
     volume::SampleOptions o;
     o.voxelSize = voxel;
-    auto grid = volume::sample(f, o);
-    return test::expectClosedSurface(volume::extractIsosurface(*grid), f->describe());
+    return volume::extractIsosurface(*volume::sample(f, o));
+}
+mesh::MeshReport meshScene(const implicit::FieldPtr& f, float voxel) {
+    return test::expectClosedSurface(meshOf(f, voxel), f->describe());
 }
 std::string errorOf(const std::string& text) {
     try {
@@ -473,10 +475,7 @@ TEST(OpenScad, ApexesOnGridSamplesAreKept) {
     // negation (-0) stays outside: issue1165's cube minus two cubes 8.8e-11 apart keeps no sheet between them.
     const float voxel = 20.f / 256.f;
     auto topOf = [&](const std::string& text, int components) {
-        const auto scene = csg::parseScene(text, "apex.csg");
-        volume::SampleOptions o;
-        o.voxelSize = voxel;
-        const mesh::TriMesh m = volume::extractIsosurface(*volume::sample(scene.root, o));
+        const mesh::TriMesh m = meshOf(csg::parseScene(text, "apex.csg").root, voxel);
         const auto r = test::expectClosedSurface(m, text);
         EXPECT_EQ(r.components, std::size_t(components)) << text;
         float top = -1e9f;
@@ -492,17 +491,16 @@ TEST(OpenScad, ApexesOnGridSamplesAreKept) {
                     " polygon([[20, 0], [0, 10], [0, -10]]);",
                     2),
               10.f - 0.01f * voxel);
-    const auto scene = csg::parseScene(
-        "difference() { cube(10, center = true);"
-        " translate([6, 5.5, 0]) cube(11, center = true);"
-        " translate([6, -5.500000000088, 0]) cube(11, center = true); }",
-        "issue1165.csg");
-    volume::SampleOptions o;
-    o.voxelSize = 10.9f / 256.f;
-    const mesh::TriMesh m = volume::extractIsosurface(*volume::sample(scene.root, o));
+    const float sheetVoxel = 10.9f / 256.f;
+    const mesh::TriMesh m = meshOf(csg::parseScene("difference() { cube(10, center = true);"
+                                                   " translate([6, 5.5, 0]) cube(11, center = true);"
+                                                   " translate([6, -5.500000000088, 0]) cube(11, center = true); }",
+                                                   "issue1165.csg")
+                                       .root,
+                                   sheetVoxel);
     float right = -1e9f;
     for (const glm::vec3& p : m.positions) right = std::max(right, p.x);
-    EXPECT_LT(right, 0.5f + o.voxelSize);
+    EXPECT_LT(right, 0.5f + sheetVoxel);
 }
 
 TEST(OpenScad, ResizeAutoTakesTheScaleOfTheLargestNewSize) {
