@@ -4,20 +4,24 @@
 #include <iostream>
 
 #include "app/commands.h"
+#include "app/mesh_slabs.h"
 
 #include "app/field_input.h"
 #include "app/volume_input.h"
 #include "core/error.h"
+#include "core/number_text.h"
 #include "csg/scene.h"
 #include "implicit/quadric.h"
 #include "implicit/shape_spec.h"
 #include "mesh/check.h"
 #include "mesh/io.h"
+#include "mesh/stream_writer.h"
 #include "render/image.h"
 #include "render/slice.h"
 #include "render/volume_views.h"
 #include "volume/dense_grid.h"
 #include "volume/labels.h"
+#include "volume/machine_memory.h"
 #include "volume/marching_cubes.h"
 #include "volume/sample.h"
 #include "volume/surface.h"
@@ -78,6 +82,18 @@ void addInfoCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
 
 namespace {
 
+openvdb::FloatGrid::Ptr sampleField(const implicit::FieldPtr& field, volume::SampleOptions so, const GlobalOptions& g,
+                                    Progress* progress, bool printStats);
+
+volume::SampleOptions sampleOptionsFor(const implicit::Field& field, const implicit::Box3& clip,
+                                       const FieldInput& fin) {
+    volume::SampleOptions so;
+    so.voxelSize = voxelSize(field, clip, fin);
+    so.halfWidth = fin.halfWidth;
+    so.clip = clip;
+    return so;
+}
+
 /// A grid from a volume file, or sampled from a field; prints what it did unless quiet.
 openvdb::FloatGrid::Ptr loadOrSample(const std::string& input, const std::string& gridName, const FieldInput& fin,
                                      const GlobalOptions& g, Progress* progress, bool printStats,
@@ -96,10 +112,12 @@ openvdb::FloatGrid::Ptr loadOrSample(const std::string& input, const std::string
     implicit::Box3 clip;
     const implicit::FieldPtr field = makeField(input, fin, clip);
     if (fieldOut) *fieldOut = field;
-    volume::SampleOptions so;
-    so.voxelSize = voxelSize(*field, clip, fin);
-    so.halfWidth = fin.halfWidth;
-    so.clip = clip;
+    return sampleField(field, sampleOptionsFor(*field, clip, fin), g, progress, printStats);
+}
+
+/// The field sampled as `so` says; prints what it did unless quiet.
+openvdb::FloatGrid::Ptr sampleField(const implicit::FieldPtr& field, volume::SampleOptions so, const GlobalOptions& g,
+                                    Progress* progress, bool printStats) {
     so.progress = progress;
     volume::SampleStats st;
     openvdb::FloatGrid::Ptr grid = volume::sample(field, so, &st);
@@ -178,7 +196,7 @@ int meshLabels(const std::string& input, const std::string& output, const std::s
 
 void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
     struct Args {
-        std::string input, output, grid, inside = "auto", colors, labelMethod = "shared";
+        std::string input, output, grid, inside = "auto", colors, labelMethod = "shared", memory;
         float iso = 0.f;
         int smooth = 0;
         bool normals = false, indexSpace = false, ascii = false, stats = false, labels = false, split = false,
@@ -236,6 +254,10 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
     cmd->add_flag("--index-space", a->indexSpace, "Positions in voxel units instead of world units");
     cmd->add_flag("--ascii", a->ascii, "ASCII PLY instead of binary");
     cmd->add_flag("--stats", a->stats, "Print timings and a topology check of the result");
+    cmd->add_option("--memory", a->memory,
+                    "Fields: stay under this much memory (e.g. 4G, 512M) by meshing in slabs of 128 voxels, each "
+                    "sampled, meshed and written before the next; the same file as without it. Chosen by itself when "
+                    "the job would not fit in half of this machine's memory. .ply, .obj or .stl output");
     cmd->callback([&c, &g, a] {
         c.run = [&g, a] {
             if (!mesh::isMeshPath(a->output))
@@ -247,9 +269,64 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                 return meshLabels(a->input, a->output, a->colors, a->split, a->labelMethod, a->volume, g, a->ascii);
             if (!a->colors.empty() || a->split)
                 throw CLI::ValidationError("--colors", "--colors and --split go with --labels");
+            std::uint64_t memoryLimit = 0;
+            if (!a->memory.empty()) {
+                try {
+                    memoryLimit = volume::parseByteSize(a->memory);
+                } catch (const std::invalid_argument& e) {
+                    throw CLI::ValidationError("--memory", e.what());
+                }
+            }
             implicit::FieldPtr field;
-            openvdb::FloatGrid::Ptr grid = loadOrSample(a->input, a->grid, a->field, g, g.quiet ? nullptr : &progress,
-                                                        a->stats, &field, &a->volume, a->smooth);
+            openvdb::FloatGrid::Ptr grid;
+            if (namesField(a->input, a->field)) {
+                implicit::Box3 clip;
+                field = makeField(a->input, a->field, clip);
+                const volume::SampleOptions so = sampleOptionsFor(*field, clip, a->field);
+                if (memoryLimit == 0 && !a->sharp && !(a->maxError > 0) &&
+                    mesh::MeshStreamWriter::canStream(a->output) &&
+                    volume::estimateSampleBytes(*field, so) > double(volume::physicalMemory() / 2)) {
+                    memoryLimit = volume::physicalMemory() / 2;
+                    if (!g.quiet)
+                        std::printf(
+                            "the whole grid would take about %s, more than half of this machine's memory: meshing "
+                            "in slabs (as with --memory %s)\n",
+                            bytesText(volume::estimateSampleBytes(*field, so)).c_str(),
+                            bytesText(double(memoryLimit)).c_str());
+                }
+                if (memoryLimit > 0) {
+                    if (a->sharp || a->maxError > 0)
+                        throw CLI::ValidationError(a->sharp ? "--sharp" : "--max-error",
+                                                   "feature vertices and simplification work on the whole mesh: not "
+                                                   "with --memory");
+                    if (!mesh::MeshStreamWriter::canStream(a->output))
+                        throw CLI::ValidationError("--memory", "a mesh written in slabs is .ply, .obj or .stl");
+                    if (!g.quiet && isOpenScadModel(a->input) && !a->noSharp)
+                        std::printf("meshing in slabs: plain marching cubes (feature vertices need the whole mesh)\n");
+                    SlabMeshJob job;
+                    job.field = field;
+                    job.sample = so;
+                    job.isovalue = a->iso;
+                    job.inside = a->inside == "below"   ? volume::InsideSide::Below
+                                 : a->inside == "above" ? volume::InsideSide::Above
+                                                        : volume::InsideSide::Auto;
+                    job.normals = a->normals;
+                    job.indexSpace = a->indexSpace;
+                    job.ascii = a->ascii;
+                    job.stats = a->stats;
+                    job.output = a->output;
+                    job.memoryLimit = memoryLimit;
+                    return meshFieldBySlabs(job, g);
+                }
+                grid = sampleField(field, so, g, g.quiet ? nullptr : &progress, a->stats);
+            } else {
+                if (memoryLimit > 0)
+                    throw CLI::ValidationError("--memory",
+                                               "volume files are meshed in memory; --memory is for fields "
+                                               "(.isf, .csg, .scad, .vm, --shape, --expr)");
+                grid = loadOrSample(a->input, a->grid, a->field, g, g.quiet ? nullptr : &progress, a->stats, &field,
+                                    &a->volume, a->smooth);
+            }
             const double readSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
 
             if (a->maxError > 0 && a->indexSpace)

@@ -2,6 +2,7 @@
 /// @file Numbers from a file, written in messages as they read back.
 
 #include <charconv>
+#include <cstdio>
 #include <string>
 
 namespace isoforge {
@@ -12,6 +13,19 @@ inline std::string numberText(double v) {
     char buf[32];
     const auto end = std::to_chars(buf, buf + sizeof buf, v).ptr;
     return std::string(buf, end);
+}
+
+/// A size in messages: "512 bytes", "3.2 MiB", "394 TiB" (three significant digits, powers of 1024).
+inline std::string bytesText(double b) {
+    const char* units[] = {"bytes", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB"};
+    int u = 0;
+    while (b >= 1024 && u < 6) {
+        b /= 1024;
+        ++u;
+    }
+    char buf[48];
+    std::snprintf(buf, sizeof buf, "%.*g %s", b < 10 ? 2 : 3, b, units[u]);
+    return buf;
 }
 
 }  // namespace isoforge

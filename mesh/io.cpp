@@ -11,6 +11,7 @@
 #include <fstream>
 #include <limits>
 #include <optional>
+#include <span>
 #include <sstream>
 #include <string_view>
 #include <vector>
@@ -21,6 +22,7 @@
 #include "core/error.h"
 #include "core/number_text.h"
 #include "mesh/gltf.h"
+#include "mesh/records.h"
 #include "mesh/text_cursor.h"
 
 namespace isoforge::mesh {
@@ -333,69 +335,32 @@ TriMesh readPly(const std::filesystem::path& path, const std::string& data) {
     return mesh;
 }
 
+/// Whole-mesh writers: the records of mesh/records.h, a chunk at a time.
+constexpr std::size_t kChunk = 1 << 16;
+
+template <class T>
+std::span<const T> chunkOf(const std::vector<T>& v, std::size_t begin) {
+    return begin < v.size() ? std::span<const T>(v).subspan(begin, std::min(kChunk, v.size() - begin))
+                            : std::span<const T>();
+}
+
 void writePly(const std::filesystem::path& path, const TriMesh& mesh, bool ascii) {
     AtomicFile out(path);
     const bool normals = mesh.normals.size() == mesh.positions.size() && !mesh.normals.empty();
     const bool colors = mesh.colors.size() == mesh.positions.size() && !mesh.colors.empty();
-    auto byte = [](float c) { return static_cast<unsigned>(std::lround(std::clamp(c, 0.f, 1.f) * 255.f)); };
-    std::ostringstream h;
-    h << "ply\nformat " << (ascii ? "ascii" : "binary_little_endian") << " 1.0\ncomment made by isoforge\n"
-      << "element vertex " << mesh.positions.size() << "\nproperty float x\nproperty float y\nproperty float z\n";
-    if (normals) h << "property float nx\nproperty float ny\nproperty float nz\n";
-    if (colors) h << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
-    h << "element face " << mesh.triangles.size() << "\nproperty list uchar int vertex_indices\nend_header\n";
-    out.write(h.str());
-    if (ascii) {
-        char buf[256];
-        for (std::size_t i = 0; i < mesh.positions.size(); ++i) {
-            const glm::vec3& p = mesh.positions[i];
-            int n = std::snprintf(buf, sizeof buf, "%.9g %.9g %.9g", p.x, p.y, p.z);
-            if (normals)
-                n += std::snprintf(buf + n, sizeof buf - static_cast<std::size_t>(n), " %.6g %.6g %.6g",
-                                   mesh.normals[i].x, mesh.normals[i].y, mesh.normals[i].z);
-            if (colors)
-                n += std::snprintf(buf + n, sizeof buf - static_cast<std::size_t>(n), " %u %u %u",
-                                   byte(mesh.colors[i].r), byte(mesh.colors[i].g), byte(mesh.colors[i].b));
-            buf[n++] = '\n';
-            out.write(buf, static_cast<std::size_t>(n));
-        }
-        for (const glm::uvec3& t : mesh.triangles) {
-            int n = std::snprintf(buf, sizeof buf, "3 %u %u %u\n", t.x, t.y, t.z);
-            out.write(buf, static_cast<std::size_t>(n));
-        }
-    } else {
-        static_assert(std::endian::native == std::endian::little, "binary PLY writer assumes a little-endian host");
-        constexpr std::size_t chunk = 1 << 16;
-        std::vector<unsigned char> v;
-        v.reserve(chunk * 27);
-        auto putFloats = [&](const glm::vec3& q) {
-            const auto* bytes = reinterpret_cast<const unsigned char*>(&q);
-            v.insert(v.end(), bytes, bytes + 12);
-        };
-        for (std::size_t b = 0; b < mesh.positions.size(); b += chunk) {
-            v.clear();
-            for (std::size_t i = b; i < std::min(mesh.positions.size(), b + chunk); ++i) {
-                putFloats(mesh.positions[i]);
-                if (normals) putFloats(mesh.normals[i]);
-                if (colors)
-                    for (int k = 0; k < 3; ++k) v.push_back(static_cast<unsigned char>(byte(mesh.colors[i][k])));
-            }
-            out.write(v.data(), v.size());
-        }
-        std::vector<unsigned char> f;
-        f.reserve(chunk * 13);
-        for (std::size_t b = 0; b < mesh.triangles.size(); b += chunk) {
-            f.clear();
-            for (std::size_t i = b; i < std::min(mesh.triangles.size(), b + chunk); ++i) {
-                f.push_back(3);
-                std::int32_t idx[3] = {static_cast<std::int32_t>(mesh.triangles[i].x),
-                                       static_cast<std::int32_t>(mesh.triangles[i].y),
-                                       static_cast<std::int32_t>(mesh.triangles[i].z)};
-                const auto* bytes = reinterpret_cast<const unsigned char*>(idx);
-                f.insert(f.end(), bytes, bytes + sizeof idx);
-            }
-            out.write(f.data(), f.size());
-        }
+    out.write(records::plyHeader(mesh.positions.size(), mesh.triangles.size(), normals, colors, ascii));
+    std::string buf;
+    for (std::size_t b = 0; b < mesh.positions.size(); b += kChunk) {
+        buf.clear();
+        records::appendPlyVertices(buf, chunkOf(mesh.positions, b),
+                                   normals ? chunkOf(mesh.normals, b) : std::span<const glm::vec3>(),
+                                   colors ? chunkOf(mesh.colors, b) : std::span<const glm::vec3>(), ascii);
+        out.write(buf);
+    }
+    for (std::size_t b = 0; b < mesh.triangles.size(); b += kChunk) {
+        buf.clear();
+        records::appendPlyFaces(buf, chunkOf(mesh.triangles, b), ascii);
+        out.write(buf);
     }
     out.commit();
 }
@@ -437,19 +402,23 @@ TriMesh readObj(const std::filesystem::path& path, const std::string& data) {
 void writeObj(const std::filesystem::path& path, const TriMesh& mesh) {
     AtomicFile out(path);
     const bool normals = mesh.normals.size() == mesh.positions.size() && !mesh.normals.empty();
-    out.write("# made by isoforge\n");
-    char buf[256];
-    for (const glm::vec3& p : mesh.positions)
-        out.write(buf, static_cast<std::size_t>(std::snprintf(buf, sizeof buf, "v %.9g %.9g %.9g\n", p.x, p.y, p.z)));
+    out.write(records::kObjHeader);
+    std::string buf;
+    for (std::size_t b = 0; b < mesh.positions.size(); b += kChunk) {
+        buf.clear();
+        records::appendObjPositions(buf, chunkOf(mesh.positions, b));
+        out.write(buf);
+    }
     if (normals)
-        for (const glm::vec3& n : mesh.normals)
-            out.write(buf,
-                      static_cast<std::size_t>(std::snprintf(buf, sizeof buf, "vn %.6g %.6g %.6g\n", n.x, n.y, n.z)));
-    for (const glm::uvec3& t : mesh.triangles) {
-        int n = normals ? std::snprintf(buf, sizeof buf, "f %u//%u %u//%u %u//%u\n", t.x + 1, t.x + 1, t.y + 1, t.y + 1,
-                                        t.z + 1, t.z + 1)
-                        : std::snprintf(buf, sizeof buf, "f %u %u %u\n", t.x + 1, t.y + 1, t.z + 1);
-        out.write(buf, static_cast<std::size_t>(n));
+        for (std::size_t b = 0; b < mesh.normals.size(); b += kChunk) {
+            buf.clear();
+            records::appendObjNormals(buf, chunkOf(mesh.normals, b));
+            out.write(buf);
+        }
+    for (std::size_t b = 0; b < mesh.triangles.size(); b += kChunk) {
+        buf.clear();
+        records::appendObjFaces(buf, chunkOf(mesh.triangles, b), normals);
+        out.write(buf);
     }
     out.commit();
 }
@@ -588,30 +557,14 @@ TriMesh readStl(const std::filesystem::path& path, const std::string& data) {
 
 void writeStl(const std::filesystem::path& path, const TriMesh& mesh) {
     AtomicFile out(path);
-    char header[80] = {};
-    std::snprintf(header, sizeof header, "binary STL made by isoforge");
-    out.write(header, 80);
-    auto n = static_cast<std::uint32_t>(mesh.triangles.size());
-    out.write(&n, 4);
-    std::vector<char> buf;
-    buf.reserve(50 * 4096);
-    for (std::size_t i = 0; i < mesh.triangles.size(); ++i) {
-        const glm::uvec3& t = mesh.triangles[i];
-        const glm::vec3 a = mesh.positions[t.x], b = mesh.positions[t.y], c = mesh.positions[t.z];
-        glm::vec3 nrm = glm::cross(b - a, c - a);
-        float len = glm::length(nrm);
-        if (len > 0) nrm /= len;
-        float rec[12] = {nrm.x, nrm.y, nrm.z, a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z};
-        const char* bytes = reinterpret_cast<const char*>(rec);
-        buf.insert(buf.end(), bytes, bytes + 48);
-        buf.push_back(0);
-        buf.push_back(0);
-        if (buf.size() >= 50 * 4096) {
-            out.write(buf.data(), buf.size());
-            buf.clear();
-        }
+    out.write(records::stlHeader(static_cast<std::uint32_t>(mesh.triangles.size())));
+    std::string buf;
+    const auto position = [&](std::uint32_t i) -> const glm::vec3& { return mesh.positions[i]; };
+    for (std::size_t b = 0; b < mesh.triangles.size(); b += kChunk) {
+        buf.clear();
+        records::appendStlTriangles(buf, chunkOf(mesh.triangles, b), position);
+        out.write(buf);
     }
-    out.write(buf.data(), buf.size());
     out.commit();
 }
 

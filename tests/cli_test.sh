@@ -296,5 +296,30 @@ expect_exit 0 "compare (itself)" "$bin" compare "$tmp/holed.ply" "$tmp/holed.ply
 awk '/^hausdorff/ { exit !($2 < 0.01) }' "$tmp/out" && ok || { bad "compare: a mesh is not 0 from itself"; cat "$tmp/out"; }
 expect_exit 1 "compare (missing file)" "$bin" compare "$tmp/holed.ply" "$tmp/nope.stl"
 
+# --memory: meshing in slabs writes the in-memory path's bytes (PLY binary and ASCII, OBJ, STL), under the
+# limit (peak resident memory in the summary), with .scad/.csg plain; what needs the whole mesh is refused.
+for f in ply obj stl; do
+    "$bin" --quiet mesh --shape "torus(R=1, r=0.3)" --voxel 0.006 --normals -o "$tmp/whole.$f"
+    expect_exit 0 "mesh --memory (.$f)" "$bin" mesh --shape "torus(R=1, r=0.3)" --voxel 0.006 --normals -o "$tmp/slabs.$f" --memory 300M
+    cmp -s "$tmp/whole.$f" "$tmp/slabs.$f" && ok || bad "mesh --memory (.$f): not the in-memory path's bytes"
+done
+awk '/^peak memory/ { v = $3; gsub(",", "", v); exit !(v + 0 > 0 && v + 0 <= 300) }' "$tmp/out" && ok \
+    || { bad "mesh --memory: peak memory not reported under the limit"; cat "$tmp/out"; }
+"$bin" --quiet mesh "$tmp/holed.isf" --resolution 300 --ascii -o "$tmp/holed_whole.ply"
+expect_exit 0 "mesh --memory (scene, ASCII)" "$bin" --quiet mesh "$tmp/holed.isf" --resolution 300 --ascii -o "$tmp/holed_slabs.ply" --memory 1G
+cmp -s "$tmp/holed_whole.ply" "$tmp/holed_slabs.ply" && ok || bad "mesh --memory (scene): not the in-memory path's bytes"
+expect_exit 0 "mesh --memory (.csg: plain)" "$bin" mesh "$tmp/holed.csg" --resolution 48 -o "$tmp/holed_csg_slabs.ply" --memory 1G
+cmp -s "$tmp/holed_plain.ply" "$tmp/holed_csg_slabs.ply" && ok || bad "mesh --memory (.csg): not the plain mesh"
+expect_exit 2 "mesh --memory --sharp" "$bin" mesh "$tmp/holed.csg" --sharp -o "$tmp/x.ply" --memory 1G
+expect_exit 2 "mesh --memory --max-error" "$bin" mesh "$tmp/holed.csg" --max-error 0.1 -o "$tmp/x.ply" --memory 1G
+expect_exit 2 "mesh --memory (.glb)" "$bin" mesh "$tmp/holed.csg" -o "$tmp/x.glb" --memory 1G
+expect_exit 2 "mesh --memory (bad size)" "$bin" mesh "$tmp/holed.csg" -o "$tmp/x.ply" --memory 12Q
+expect_exit 1 "mesh --memory (below the process itself)" "$bin" mesh "$tmp/holed.csg" -o "$tmp/x.ply" --memory 1M
+grep -q "give at least" "$tmp/err" && ok || bad "mesh --memory 1M: no message saying what is needed"
+expect_exit 1 "mesh --memory (a slab outgrows it)" "$bin" mesh --shape "sphere(r=1)" --voxel 0.001 -o "$tmp/x.ply" --memory 120M
+grep -q "raise --memory" "$tmp/err" && ok || bad "mesh --memory: no advice when a slab outgrows the limit"
+[ ! -e "$tmp/x.ply" ] && ok || bad "mesh --memory: a partial output was left"
+ls -a "$tmp" | grep -q scratch && bad "mesh --memory: scratch files left behind" || ok
+
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

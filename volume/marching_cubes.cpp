@@ -453,8 +453,20 @@ private:
     std::atomic<std::size_t> done_{0};
 };
 
+/// Index of the first key whose block origin has x >= `x` (keys sorted).
+std::size_t firstWithX(const std::vector<std::uint64_t>& keys, const KeyPacker& packer, std::int64_t x) {
+    return static_cast<std::size_t>(
+        std::partition_point(keys.begin(), keys.end(),
+                             [&](std::uint64_t k) { return std::int64_t{packer.unpack(k).x()} < x; }) -
+        keys.begin());
+}
+
+/// Meshes the blocks with x origin in [slab.x0, slab.x1) (everything for the whole grid), numbering
+/// vertices from slab.vertexBase; `out` also receives the vertices of the blocks at x1 (the ghosts the
+/// slab's triangles use). Returns the number of vertices the slab owns.
 template <bool Below>
-void extract(const openvdb::FloatGrid& grid, const MeshingOptions& options, mesh::TriMesh& out, MeshingStats& stats) {
+std::size_t extract(const openvdb::FloatGrid& grid, const MeshingOptions& options, const SlabRange& slab,
+                    mesh::TriMesh& out, MeshingStats& stats) {
     const Tree& tree = grid.tree();
     const float iso = options.isovalue;
     const mc::CaseTable& table = mc::caseTable();
@@ -462,6 +474,15 @@ void extract(const openvdb::FloatGrid& grid, const MeshingOptions& options, mesh
 
     KeyPacker packer;
     std::vector<std::uint64_t> keys = collectBlocks<Below>(tree, iso, packer, stats.leaves);
+    // A slab counts the blocks from x0 - 8 (whose missing neighbours the whole grid adds too: they may
+    // own vertices of the slab) to x1 (the owners of its ghost vertices), and writes those in [x0, x1).
+    if (!keys.empty())
+        keys.erase(std::remove_if(keys.begin(), keys.end(),
+                                  [&](std::uint64_t k) {
+                                      const std::int64_t x = packer.unpack(k).x();
+                                      return x < slab.x0 - 8 || x > slab.x1;
+                                  }),
+                   keys.end());
     std::size_t n = keys.size();
     auto index = std::make_unique<BlockIndex>(keys);
     stats.secondsSetup = secondsSince(t0);
@@ -498,8 +519,10 @@ void extract(const openvdb::FloatGrid& grid, const MeshingOptions& options, mesh
                     }
                 vertexOffset[bi + 1] = vertices;
                 triangleOffset[bi + 1] = triangles;
-                if (triangles == 0) continue;
                 const Coord origin = packer.unpack(keys[bi]);
+                // Only blocks that write triangles need their neighbours' vertices (a slab's ghost
+                // owners at x1 do not: the next slab writes their triangles, and finds their neighbours).
+                if (triangles == 0 || origin.x() >= slab.x1) continue;
                 for (int o = 1; o < 8; ++o)
                     if (ownsCutEdges(masks, o)) {
                         const std::uint64_t key =
@@ -537,16 +560,21 @@ void extract(const openvdb::FloatGrid& grid, const MeshingOptions& options, mesh
         std::partial_sum(triangleOffset.begin(), triangleOffset.end(), triangleOffset.begin());
         stats.secondsCount = secondsSince(t0);
 
-        if (vertexOffset[n] > std::numeric_limits<std::uint32_t>::max())
-            throw ResourceError("the surface has " + std::to_string(vertexOffset[n]) +
+        // Blocks [first, last) are the slab's, [last, ghostEnd) own its ghost vertices.
+        const std::size_t first = firstWithX(keys, packer, slab.x0), last = firstWithX(keys, packer, slab.x1),
+                          ghostEnd = firstWithX(keys, packer, slab.x1 + 1);
+        const std::uint64_t vfirst = vertexOffset[first];
+        if (slab.vertexBase + vertexOffset[ghostEnd] - vfirst > std::numeric_limits<std::uint32_t>::max())
+            throw ResourceError("the surface has more than " +
+                                std::to_string(slab.vertexBase + vertexOffset[ghostEnd] - vfirst) +
                                 " vertices, more than 32-bit indices can address");
 
         // Pass 2: vertices and triangles, each block at its own offsets.
         t0 = Clock::now();
-        out.positions.resize(vertexOffset[n]);
-        out.triangles.resize(triangleOffset[n]);
+        out.positions.resize(vertexOffset[ghostEnd] - vfirst);
+        out.triangles.resize(triangleOffset[last] - triangleOffset[first]);
         if (options.normals)
-            out.normals.resize(vertexOffset[n]);
+            out.normals.resize(out.positions.size());
         else
             out.normals.clear();
 
@@ -555,93 +583,101 @@ void extract(const openvdb::FloatGrid& grid, const MeshingOptions& options, mesh
         const AffineToWorld toWorld(affine ? xform.baseMap()->getAffineMap()->getMat4() : openvdb::Mat4d::identity());
         std::atomic<std::size_t> surfaceBlocks{0};
 
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 64), [&](const tbb::blocked_range<std::size_t>& r) {
-            Accessor acc(tree);
-            Sources src;
-            std::uint32_t slots[kSlots];  // only entries of cut edges are written and read
-            Masks masks;
-            std::size_t localSurface = 0;
-            for (std::size_t bi = r.begin(); bi != r.end(); ++bi) {
-                const std::uint64_t vbase = vertexOffset[bi];
-                if (vertexOffset[bi + 1] == vbase && triangleOffset[bi + 1] == triangleOffset[bi]) continue;
-                ++localSurface;
-                const BlockData& b = (*blocks)[bi];
-                const Coord origin = packer.unpack(keys[bi]);
-                src.load(acc, origin);
-                computeMasks<Below>(src, iso, masks);
+        tbb::parallel_for(
+            tbb::blocked_range<std::size_t>(first, ghostEnd, 64), [&](const tbb::blocked_range<std::size_t>& r) {
+                Accessor acc(tree);
+                Sources src;
+                std::uint32_t slots[kSlots];  // only entries of cut edges are written and read
+                Masks masks;
+                std::size_t localSurface = 0;
+                for (std::size_t bi = r.begin(); bi != r.end(); ++bi) {
+                    const std::uint64_t vbase = vertexOffset[bi];
+                    if (vertexOffset[bi + 1] == vbase && triangleOffset[bi + 1] == triangleOffset[bi]) continue;
+                    const bool ghost = bi >= last;
+                    localSurface += !ghost;
+                    const BlockData& b = (*blocks)[bi];
+                    const Coord origin = packer.unpack(keys[bi]);
+                    src.load(acc, origin);
+                    computeMasks<Below>(src, iso, masks);
 
-                // Vertices owned by this block, in rank order; their indices go to the slot table.
-                std::uint32_t vi = static_cast<std::uint32_t>(vbase);
-                for (int a = 0; a < 3; ++a)
-                    for (int row = 0; row < 64; ++row) {
-                        const int x = row >> 3, y = row & 7;
-                        for (std::uint32_t bits = edgeRow(b, a, x, y); bits; bits &= bits - 1) {
-                            const int z = std::countr_zero(bits);
-                            const float v0 = src.value(x, y, z);
-                            const float v1 = src.value(x + (a == 0), y + (a == 1), z + (a == 2));
-                            float t = (iso - v0) / (v1 - v0);
-                            t = t > kEdgeMargin ? (t < 1.f - kEdgeMargin ? t : 1.f - kEdgeMargin) : kEdgeMargin;
-                            openvdb::Vec3d p(origin.x() + x, origin.y() + y, origin.z() + z);
-                            p[a] += t;
-                            if (options.normals)
-                                out.normals[vi] =
-                                    normalAt<Below>(acc, xform, options.worldSpace, origin.offsetBy(x, y, z), a, t, p);
-                            if (options.worldSpace) p = affine ? toWorld.apply(p) : xform.indexToWorld(p);
-                            out.positions[vi] = glm::vec3(p.x(), p.y(), p.z());
-                            slots[a * 729 + x * 81 + y * 9 + z] = vi++;
+                    // Vertices owned by this block, in rank order; their indices go to the slot table.
+                    std::size_t vi = vbase - vfirst;
+                    for (int a = 0; a < 3; ++a)
+                        for (int row = 0; row < 64; ++row) {
+                            const int x = row >> 3, y = row & 7;
+                            for (std::uint32_t bits = edgeRow(b, a, x, y); bits; bits &= bits - 1) {
+                                const int z = std::countr_zero(bits);
+                                const float v0 = src.value(x, y, z);
+                                const float v1 = src.value(x + (a == 0), y + (a == 1), z + (a == 2));
+                                float t = (iso - v0) / (v1 - v0);
+                                t = t > kEdgeMargin ? (t < 1.f - kEdgeMargin ? t : 1.f - kEdgeMargin) : kEdgeMargin;
+                                openvdb::Vec3d p(origin.x() + x, origin.y() + y, origin.z() + z);
+                                p[a] += t;
+                                if (options.normals)
+                                    out.normals[vi] = normalAt<Below>(acc, xform, options.worldSpace,
+                                                                      origin.offsetBy(x, y, z), a, t, p);
+                                if (options.worldSpace) p = affine ? toWorld.apply(p) : xform.indexToWorld(p);
+                                out.positions[vi] = glm::vec3(p.x(), p.y(), p.z());
+                                slots[a * 729 + x * 81 + y * 9 + z] =
+                                    static_cast<std::uint32_t>(slab.vertexBase + vi++);
+                            }
                         }
-                    }
+                    if (ghost) continue;  // the next slab writes its triangles
 
-                // Vertices on our upper faces that neighbour blocks own (their edges start at 8).
-                for (int o = 1; o < 7; ++o) {
-                    const std::int64_t ob =
-                        index->find(packer.pack(origin.offsetBy(8 * (o & 1), 8 * ((o >> 1) & 1), 8 * ((o >> 2) & 1))));
-                    if (ob < 0) continue;
-                    const BlockData& B = (*blocks)[static_cast<std::size_t>(ob)];
-                    const std::uint32_t obase = static_cast<std::uint32_t>(vertexOffset[static_cast<std::size_t>(ob)]);
-                    if (vertexOffset[static_cast<std::size_t>(ob) + 1] == obase) continue;
-                    const int ox = o & 1, oy = (o >> 1) & 1, oz = (o >> 2) & 1;
-                    for (int a = 0; a < 3; ++a) {
-                        if ((a == 0 && ox) || (a == 1 && oy) || (a == 2 && oz)) continue;  // edge would leave the block
-                        for (int lx = 0; lx < (ox ? 1 : 8); ++lx) {
-                            std::uint32_t rowStart = obase + B.prefix[a][lx];
-                            for (int ly = 0; ly < (oy ? 1 : 8); ++ly) {
-                                const std::uint32_t row = edgeRow(B, a, lx, ly);
-                                std::uint32_t bits = row & (oz ? 1u : 0xFFu);
-                                const int sx = ox ? 8 : lx, sy = oy ? 8 : ly;
-                                for (; bits; bits &= bits - 1) {
-                                    const int lz = std::countr_zero(bits);
-                                    const std::uint32_t rank = popcount8(row & ((1u << lz) - 1u));
-                                    slots[a * 729 + sx * 81 + sy * 9 + (oz ? 8 : lz)] = rowStart + rank;
+                    // Vertices on our upper faces that neighbour blocks own (their edges start at 8).
+                    for (int o = 1; o < 7; ++o) {
+                        const std::int64_t ob = index->find(
+                            packer.pack(origin.offsetBy(8 * (o & 1), 8 * ((o >> 1) & 1), 8 * ((o >> 2) & 1))));
+                        if (ob < 0) continue;
+                        const BlockData& B = (*blocks)[static_cast<std::size_t>(ob)];
+                        const std::uint64_t oOffset = vertexOffset[static_cast<std::size_t>(ob)];
+                        if (vertexOffset[static_cast<std::size_t>(ob) + 1] == oOffset) continue;
+                        const auto obase = static_cast<std::uint32_t>(slab.vertexBase + oOffset - vfirst);
+                        const int ox = o & 1, oy = (o >> 1) & 1, oz = (o >> 2) & 1;
+                        for (int a = 0; a < 3; ++a) {
+                            if ((a == 0 && ox) || (a == 1 && oy) || (a == 2 && oz))
+                                continue;  // edge would leave the block
+                            for (int lx = 0; lx < (ox ? 1 : 8); ++lx) {
+                                std::uint32_t rowStart = obase + B.prefix[a][lx];
+                                for (int ly = 0; ly < (oy ? 1 : 8); ++ly) {
+                                    const std::uint32_t row = edgeRow(B, a, lx, ly);
+                                    std::uint32_t bits = row & (oz ? 1u : 0xFFu);
+                                    const int sx = ox ? 8 : lx, sy = oy ? 8 : ly;
+                                    for (; bits; bits &= bits - 1) {
+                                        const int lz = std::countr_zero(bits);
+                                        const std::uint32_t rank = popcount8(row & ((1u << lz) - 1u));
+                                        slots[a * 729 + sx * 81 + sy * 9 + (oz ? 8 : lz)] = rowStart + rank;
+                                    }
+                                    rowStart += popcount8(row);
                                 }
-                                rowStart += popcount8(row);
                             }
                         }
                     }
-                }
 
-                // Triangles: each corner is one slot-table load.
-                std::uint64_t ti = triangleOffset[bi];
-                for (int x = 0; x < 8; ++x)
-                    for (int y = 0; y < 8; ++y) {
-                        const std::uint64_t codes = rowCodes(masks, x, y);
-                        if (isUniform(codes)) continue;
-                        for (int z = 0; z < 8; ++z) {
-                            const int code = static_cast<int>((codes >> (4 * z)) & 0xFF);
-                            const int count = table.triangleCount[code];
-                            const std::uint32_t* cell = slots + x * 81 + y * 9 + z;
-                            const std::uint8_t* edges = table.edges[code].data();
-                            for (int k = 0; k < count; ++k, edges += 3)
-                                out.triangles[ti++] = glm::uvec3(cell[kEdgeSlot[edges[0]]], cell[kEdgeSlot[edges[1]]],
-                                                                 cell[kEdgeSlot[edges[2]]]);
+                    // Triangles: each corner is one slot-table load.
+                    std::uint64_t ti = triangleOffset[bi] - triangleOffset[first];
+                    for (int x = 0; x < 8; ++x)
+                        for (int y = 0; y < 8; ++y) {
+                            const std::uint64_t codes = rowCodes(masks, x, y);
+                            if (isUniform(codes)) continue;
+                            for (int z = 0; z < 8; ++z) {
+                                const int code = static_cast<int>((codes >> (4 * z)) & 0xFF);
+                                const int count = table.triangleCount[code];
+                                const std::uint32_t* cell = slots + x * 81 + y * 9 + z;
+                                const std::uint8_t* edges = table.edges[code].data();
+                                for (int k = 0; k < count; ++k, edges += 3)
+                                    out.triangles[ti++] =
+                                        glm::uvec3(cell[kEdgeSlot[edges[0]]], cell[kEdgeSlot[edges[1]]],
+                                                   cell[kEdgeSlot[edges[2]]]);
+                            }
                         }
-                    }
-            }
-            surfaceBlocks += localSurface;
-            ticker.add(r.size());
-        });
+                }
+                surfaceBlocks += localSurface;
+                ticker.add(r.size());
+            });
         stats.surfaceBlocks = surfaceBlocks;
         stats.secondsWrite = secondsSince(t0);
+        return static_cast<std::size_t>(vertexOffset[last] - vfirst);
     }
 }
 
@@ -717,13 +753,13 @@ bool insideIsBelow(const openvdb::FloatGrid& grid, InsideSide side) {
     return grid.getGridClass() == openvdb::GRID_LEVEL_SET;
 }
 
-void extractIsosurface(const openvdb::FloatGrid& grid, const MeshingOptions& options, mesh::TriMesh& out,
-                       MeshingStats* stats) {
+namespace {
+
+std::size_t extractRange(const openvdb::FloatGrid& grid, const MeshingOptions& options, const SlabRange& slab,
+                         mesh::TriMesh& out, MeshingStats* stats) {
     MeshingStats local;
-    if (insideIsBelow(grid, options.inside))
-        extract<true>(grid, options, out, local);
-    else
-        extract<false>(grid, options, out, local);
+    const std::size_t owned = insideIsBelow(grid, options.inside) ? extract<true>(grid, options, slab, out, local)
+                                                                  : extract<false>(grid, options, slab, out, local);
     // A transform that mirrors (negative determinant, as medical volumes with a flipped axis have) turns
     // counter-clockwise index-space triangles clockwise in world space: rewind them so normals stay outward.
     if (options.worldSpace && grid.transform().isLinear()) {
@@ -732,6 +768,21 @@ void extractIsosurface(const openvdb::FloatGrid& grid, const MeshingOptions& opt
             for (glm::uvec3& t : out.triangles) std::swap(t.y, t.z);
     }
     if (stats) *stats = local;
+    return owned;
+}
+
+}  // namespace
+
+void extractIsosurface(const openvdb::FloatGrid& grid, const MeshingOptions& options, mesh::TriMesh& out,
+                       MeshingStats* stats) {
+    extractRange(grid, options, SlabRange{}, out, stats);
+}
+
+std::size_t extractSlab(const openvdb::FloatGrid& grid, const MeshingOptions& options, const SlabRange& slab,
+                        mesh::TriMesh& out, MeshingStats* stats) {
+    if ((slab.x0 & 7) || (slab.x1 & 7) || slab.x1 <= slab.x0)
+        throw std::invalid_argument("a slab is a non-empty range of 8-voxel block columns");
+    return extractRange(grid, options, slab, out, stats);
 }
 
 std::vector<openvdb::CoordBBox> crossedCellBoxes(const openvdb::FloatGrid& grid, float iso, InsideSide side,

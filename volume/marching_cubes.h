@@ -2,6 +2,7 @@
 /// @file isoforge's parallel marching cubes on sparse OpenVDB grids.
 
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 #include <openvdb/openvdb.h>
@@ -48,6 +49,26 @@ struct MeshingStats {
 /// @throw ResourceError if the grid's index extent cannot be addressed (over 2^21 leaves per axis)
 void extractIsosurface(const openvdb::FloatGrid& grid, const MeshingOptions& options, mesh::TriMesh& out,
                        MeshingStats* stats = nullptr);
+
+/// A slab of the grid for out-of-core and distributed meshing (volume/bricked.h): the cells of the 8^3
+/// blocks whose index-space x origin lies in [x0, x1), with vertices numbered from vertexBase.
+/// The default is the whole grid.
+struct SlabRange {
+    std::int64_t x0 = -(std::int64_t{1} << 40), x1 = std::int64_t{1} << 40;  ///< multiples of 8
+    std::uint64_t vertexBase = 0;  ///< the number of the slab's first vertex (the vertices of slabs before it)
+};
+
+/// The part of extractIsosurface's mesh that the slab makes: its vertices (the owned ones, in the
+/// whole mesh's order) and its triangles, numbered as in the whole mesh (vertex v is
+/// out.positions[v - vertexBase]). Slabs taken in order and concatenated give the whole mesh's bytes.
+/// `out` also receives, after the owned vertices, the "ghost" vertices of the blocks at x1 that the
+/// slab's triangles use; the next slab owns them and makes them again, identical.
+/// `grid` need only hold the values for x in [x0 - 8, x1 + 16) (the slab, a block column below it,
+/// two above): the rest of the grid is not read.
+/// @return the number of vertices the slab owns
+/// @throw std::invalid_argument if x0 or x1 is not a multiple of 8 or the range is empty
+std::size_t extractSlab(const openvdb::FloatGrid& grid, const MeshingOptions& options, const SlabRange& slab,
+                        mesh::TriMesh& out, MeshingStats* stats = nullptr);
 
 /// Convenience overload returning a new mesh.
 mesh::TriMesh extractIsosurface(const openvdb::FloatGrid& grid, const MeshingOptions& options = {},

@@ -15,6 +15,7 @@
 #include <glm/vector_relational.hpp>
 
 #include "core/error.h"
+#include "core/number_text.h"
 #include "implicit/primitives.h"
 
 namespace isoforge::volume {
@@ -38,19 +39,6 @@ namespace {
 constexpr int kTop = 128;  // top-level regions: OpenVDB's internal nodes of level 1
 constexpr std::uint64_t kBytesPerLeaf = 512 * 4 + 64 + 96;
 
-std::string humanBytes(double b) {
-    const char* units[] = {"bytes", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB"};
-    int u = 0;
-    while (b >= 1024 && u < 6) {
-        b /= 1024;
-        ++u;
-    }
-    std::ostringstream s;
-    s.precision(b < 10 ? 2 : 3);
-    s << b << " " << units[u];
-    return s.str();
-}
-
 struct Job {
     Coord origin;
     FieldPtr field;
@@ -67,11 +55,12 @@ struct TopResult {
 
 class Sampler {
 public:
-    Sampler(float voxel, float band, bool distance, std::uint64_t maxLeaves)
-        : voxel_(voxel), band_(band), distance_(distance), maxLeaves_(maxLeaves) {}
+    Sampler(float voxel, float band, bool distance, std::uint64_t maxLeaves, std::int64_t xBegin, std::int64_t xEnd)
+        : voxel_(voxel), band_(band), distance_(distance), maxLeaves_(maxLeaves), xBegin_(xBegin), xEnd_(xEnd) {}
 
     void visit(const Coord& origin, int size, const FieldPtr& f, TopResult& out) {
         if (abort_.load(std::memory_order_relaxed)) return;
+        if (origin.x() >= xEnd_ || std::int64_t{origin.x()} + size <= xBegin_) return;  // outside the slab
         // Box of the voxel centres of the region; for non-distance fields one voxel more on each
         // side, so that every voxel next to a sign change is sampled.
         const float m = distance_ ? 0.f : voxel_;
@@ -83,12 +72,15 @@ public:
         const float outsideAbove = distance_ ? band_ : 0.f;
         if (b.lo >= outsideAbove) return;           // all outside (or beyond the band): background
         if (b.hi <= -outsideAbove && b.hi < 0.f) {  // all inside: tiles
-            if (size == kTop)
+            // Within a slab only: beyond it the grid stays background, as the mesher of a slab expects.
+            if (size == kTop && origin.x() >= xBegin_ && std::int64_t{origin.x()} + size <= xEnd_)
                 out.tiles.push_back({origin, 2});
             else
-                for (int x = 0; x < size; x += 8)
+                for (int x = 0; x < size; x += 8) {
+                    if (origin.x() + x >= xEnd_ || std::int64_t{origin.x()} + x + 8 <= xBegin_) continue;
                     for (int y = 0; y < size; y += 8)
                         for (int z = 0; z < size; z += 8) out.tiles.push_back({origin.offsetBy(x, y, z), 1});
+                }
             return;
         }
         if (size == 8) {
@@ -107,15 +99,55 @@ private:
     float voxel_, band_;
     bool distance_;
     std::uint64_t maxLeaves_;
+    std::int64_t xBegin_, xEnd_;
     std::atomic<std::uint64_t> leafCount_{0};
     std::atomic<bool> abort_{false};
 };
+
+/// Index range of the voxels to consider (voxel i is centred at i * voxel): the domain and a margin.
+std::pair<glm::dvec3, glm::dvec3> indexRange(const Box3& domain, float voxel, float band) {
+    const float margin = band + 2.f * voxel;
+    return {glm::floor(glm::dvec3(domain.min - glm::vec3(margin)) / double(voxel)),
+            glm::ceil(glm::dvec3(domain.max + glm::vec3(margin)) / double(voxel))};
+}
+
+/// Estimate: leaves along a surface like the domain's box, as thick as the band.
+double boxArea(const glm::dvec3& extent) {
+    return 2.0 * (extent.x * extent.y + extent.y * extent.z + extent.z * extent.x);
+}
+
+double gridBytesEstimate(const glm::dvec3& extent, bool distance, float halfWidth) {
+    const double area = boxArea(extent);
+    const double thickness = std::ceil((distance ? 2.0 * halfWidth : 2.0) / 8.0) + 1.0;
+    return area / 64.0 * thickness * kBytesPerLeaf;
+}
 
 int floorDiv(int a, int b) {
     return a >= 0 ? a / b : -((-a + b - 1) / b);
 }
 
 }  // namespace
+
+std::pair<std::int64_t, std::int64_t> sampleIndexRangeX(const implicit::Field& field, const SampleOptions& o) {
+    const Box3 domain = sampleDomain(field, o.clip);
+    if (!domain.isBounded() || domain.isEmpty() || !(o.voxelSize > 0)) return {0, -1};
+    const auto [lo, hi] = indexRange(domain, o.voxelSize, field.isDistance() ? o.halfWidth * o.voxelSize : 0.f);
+    return {static_cast<std::int64_t>(lo.x), static_cast<std::int64_t>(hi.x)};
+}
+
+double estimateSampleBytes(const implicit::Field& field, const SampleOptions& o) {
+    const Box3 domain = sampleDomain(field, o.clip);
+    if (!domain.isBounded() || domain.isEmpty() || !(o.voxelSize > 0)) return 0;
+    const auto [lo, hi] = indexRange(domain, o.voxelSize, field.isDistance() ? o.halfWidth * o.voxelSize : 0.f);
+    return gridBytesEstimate(hi - lo + 1.0, field.isDistance(), o.halfWidth);
+}
+
+double estimateSurfaceVoxels(const implicit::Field& field, const SampleOptions& o) {
+    const Box3 domain = sampleDomain(field, o.clip);
+    if (!domain.isBounded() || domain.isEmpty() || !(o.voxelSize > 0)) return 0;
+    const auto [lo, hi] = indexRange(domain, o.voxelSize, field.isDistance() ? o.halfWidth * o.voxelSize : 0.f);
+    return boxArea(hi - lo + 1.0);
+}
 
 openvdb::FloatGrid::Ptr sample(const FieldPtr& field, const SampleOptions& o, SampleStats* statsOut) {
     const auto t0 = std::chrono::steady_clock::now();
@@ -143,29 +175,22 @@ openvdb::FloatGrid::Ptr sample(const FieldPtr& field, const SampleOptions& o, Sa
                      glm::any(glm::greaterThan(own.max, o.clip.max));
     const FieldPtr f = cut && o.clip.isBounded() ? implicit::makeClipped(field, o.clip) : field;
 
-    // Index range of the voxels to consider (voxel i is centred at i * voxel).
-    const float margin = (stats.distance ? band : 0.f) + 2.f * voxel;
     const double maxIndex = double{1 << 30};
-    const glm::dvec3 lo = glm::floor(glm::dvec3(domain.min - glm::vec3(margin)) / double(voxel));
-    const glm::dvec3 hi = glm::ceil(glm::dvec3(domain.max + glm::vec3(margin)) / double(voxel));
+    const auto [lo, hi] = indexRange(domain, voxel, stats.distance ? band : 0.f);
     const glm::dvec3 extent = hi - lo + 1.0;
-    // Estimate: leaves along a surface like the domain's box, as thick as the band.
-    const double area = 2.0 * (extent.x * extent.y + extent.y * extent.z + extent.z * extent.x);
-    const double thickness = std::ceil((stats.distance ? 2.0 * o.halfWidth : 2.0) / 8.0) + 1.0;
-    const double leavesEstimate = area / 64.0 * thickness;
-    const double bytesEstimate = leavesEstimate * kBytesPerLeaf;
+    const double bytesEstimate = gridBytesEstimate(extent, stats.distance, o.halfWidth);
     stats.estimatedBytes = bytesEstimate > 1.8e19 ? ~std::uint64_t{0} : static_cast<std::uint64_t>(bytesEstimate);
     const std::uint64_t limit = o.memoryLimit ? o.memoryLimit : physicalMemory() / 2;
     std::ostringstream dims;
     dims << static_cast<long long>(extent.x) << " x " << static_cast<long long>(extent.y) << " x "
          << static_cast<long long>(extent.z) << " voxels";
-    if (bytesEstimate > static_cast<double>(limit) || std::abs(lo.x) > maxIndex || std::abs(hi.x) > maxIndex ||
-        std::abs(lo.y) > maxIndex || std::abs(hi.y) > maxIndex || std::abs(lo.z) > maxIndex ||
-        std::abs(hi.z) > maxIndex)
+    const bool slab = o.xBegin > -(std::int64_t{1} << 40) || o.xEnd < (std::int64_t{1} << 40);
+    if ((!slab && bytesEstimate > static_cast<double>(limit)) || std::abs(lo.x) > maxIndex ||
+        std::abs(hi.x) > maxIndex || std::abs(lo.y) > maxIndex || std::abs(hi.y) > maxIndex ||
+        std::abs(lo.z) > maxIndex || std::abs(hi.z) > maxIndex)
         throw ResourceError("sampling " + field->describe() + " at voxel size " + std::to_string(voxel) + " (" +
-                            dims.str() + ") would need about " + humanBytes(bytesEstimate) + "; the limit is " +
-                            humanBytes(static_cast<double>(limit)) +
-                            ". Use a larger voxel size or a lower resolution.");
+                            dims.str() + ") would need about " + bytesText(bytesEstimate) + "; the limit is " +
+                            bytesText(static_cast<double>(limit)) + ". Use a larger voxel size or a lower resolution.");
 
     auto grid = openvdb::FloatGrid::create(background);
     grid->setTransform(openvdb::math::Transform::createLinearTransform(voxel));
@@ -177,13 +202,15 @@ openvdb::FloatGrid::Ptr sample(const FieldPtr& field, const SampleOptions& o, Sa
     const Coord ilo(static_cast<int>(lo.x), static_cast<int>(lo.y), static_cast<int>(lo.z));
     const Coord ihi(static_cast<int>(hi.x), static_cast<int>(hi.y), static_cast<int>(hi.z));
     std::vector<Coord> tops;
-    for (int x = floorDiv(ilo.x(), kTop); x <= floorDiv(ihi.x(), kTop); ++x)
+    for (int x = floorDiv(ilo.x(), kTop); x <= floorDiv(ihi.x(), kTop); ++x) {
+        if (x * std::int64_t{kTop} >= o.xEnd || (x + 1) * std::int64_t{kTop} <= o.xBegin) continue;
         for (int y = floorDiv(ilo.y(), kTop); y <= floorDiv(ihi.y(), kTop); ++y)
             for (int z = floorDiv(ilo.z(), kTop); z <= floorDiv(ihi.z(), kTop); ++z)
                 tops.emplace_back(x * kTop, y * kTop, z * kTop);
+    }
 
     // Top-down, in parallel over top regions; results kept per region for a deterministic order.
-    Sampler sampler(voxel, band, stats.distance, std::max<std::uint64_t>(limit / kBytesPerLeaf, 1));
+    Sampler sampler(voxel, band, stats.distance, std::max<std::uint64_t>(limit / kBytesPerLeaf, 1), o.xBegin, o.xEnd);
     std::vector<TopResult> results(tops.size());
     if (o.progress) o.progress->begin("sampling");
     std::atomic<std::size_t> done{0};
@@ -193,7 +220,7 @@ openvdb::FloatGrid::Ptr sample(const FieldPtr& field, const SampleOptions& o, Sa
     });
     if (sampler.aborted())
         throw ResourceError("sampling " + field->describe() + " outgrew the memory limit of " +
-                            humanBytes(static_cast<double>(limit)) + " (the surface is larger than " + dims.str() +
+                            bytesText(static_cast<double>(limit)) + " (the surface is larger than " + dims.str() +
                             " suggested). Use a larger voxel size.");
     std::vector<Job> jobs;
     for (TopResult& r : results) {

@@ -2,6 +2,7 @@
 /// @file Sampling implicit fields into sparse OpenVDB grids.
 
 #include <cstdint>
+#include <utility>
 
 #include <openvdb/openvdb.h>
 
@@ -16,6 +17,11 @@ struct SampleOptions {
     float halfWidth = 3.f;  ///< narrow-band half-width in voxels, for distance fields (>= 1)
     implicit::Box3 clip = implicit::Box3::everything();  ///< intersected with the field's bounds
     std::uint64_t memoryLimit = 0;                       ///< bytes; 0: half of this machine's memory
+    /// Only the voxels with index-space x in [xBegin, xEnd), multiples of 8 (a slab, volume/bricked.h):
+    /// their leaves are exactly the whole grid's, an inside tile the slab cuts becomes 8^3 tiles within
+    /// it, and beyond the slab the grid is background. The up-front estimate is then not refused (the
+    /// memory limit still stops sampling that outgrows it).
+    std::int64_t xBegin = -(std::int64_t{1} << 40), xEnd = std::int64_t{1} << 40;
     Progress* progress = nullptr;
 };
 
@@ -43,6 +49,16 @@ struct SampleStats {
 ///        or if sampling outgrows the limit on its way.
 openvdb::FloatGrid::Ptr sample(const implicit::FieldPtr& field, const SampleOptions& options,
                                SampleStats* stats = nullptr);
+
+/// Index-space x range [first, last] of the voxels sample() considers for `field` (the domain and a margin).
+std::pair<std::int64_t, std::int64_t> sampleIndexRangeX(const implicit::Field& field, const SampleOptions& options);
+
+/// The bytes sample() expects the grid to take (a surface like the domain's box, as thick as the band):
+/// the estimate it refuses requests with.
+double estimateSampleBytes(const implicit::Field& field, const SampleOptions& options);
+/// The area, in voxel faces, of the surface those estimates assume (the domain's box): about the
+/// number of vertices of its mesh, and half the number of triangles.
+double estimateSurfaceVoxels(const implicit::Field& field, const SampleOptions& options);
 
 /// The region sampled for `field` under `clip` (bounds ∩ clip).
 implicit::Box3 sampleDomain(const implicit::Field& field, const implicit::Box3& clip);

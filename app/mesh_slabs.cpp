@@ -1,0 +1,104 @@
+#include "app/mesh_slabs.h"
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+
+#include "core/error.h"
+#include "core/number_text.h"
+#include "core/progress.h"
+#include "mesh/stream_writer.h"
+#include "volume/bricked.h"
+#include "volume/machine_memory.h"
+
+namespace isoforge::app {
+
+namespace {
+std::string mebibytes(std::uint64_t bytes) {
+    return withCommas((bytes + (1u << 19)) >> 20) + " MiB";
+}
+}  // namespace
+
+int meshFieldBySlabs(const SlabMeshJob& job, const GlobalOptions& g) {
+    using Clock = std::chrono::steady_clock;
+    const auto t0 = Clock::now();
+    // What the process holds already (code, libraries, the scene) is not the slabs' to spend; of the
+    // rest, half goes to a slab's grid and the other half to its mesh, the mesher's scratch and the
+    // writer's buffers.
+    const std::uint64_t base = volume::residentMemory();
+    constexpr std::uint64_t kMinimum = std::uint64_t{64} << 20;
+    if (job.memoryLimit < base + kMinimum)
+        throw ResourceError("--memory " + mebibytes(job.memoryLimit) + " leaves nothing to mesh with: isoforge holds " +
+                            mebibytes(base) + " before it starts; give at least " + mebibytes(base + kMinimum));
+    // The mesh goes to disk, twice over (scratch files, then the file): refuse what the disk cannot take.
+    const double perVertex = 12.0 * (1 + job.normals) + 3 + 2 * 13.0;  // PLY: a vertex, two faces
+    const double diskBytes = 2 * volume::estimateSurfaceVoxels(*job.field, job.sample) * perVertex;
+    std::filesystem::path dir = std::filesystem::absolute(job.output).parent_path();
+    std::error_code ec;
+    const std::filesystem::space_info space = std::filesystem::space(dir, ec);
+    if (!ec && diskBytes > static_cast<double>(space.available))
+        throw ResourceError("meshing " + job.field->describe() + " at voxel size " +
+                            std::to_string(job.sample.voxelSize) + " in slabs would need about " +
+                            bytesText(diskBytes) + " of disk for the mesh and its scratch files; " + dir.string() +
+                            " has " + bytesText(static_cast<double>(space.available)) +
+                            " free. Use a larger voxel size or a lower resolution.");
+    volume::SlabOptions so;
+    so.sample = job.sample;
+    so.sample.memoryLimit = (job.memoryLimit - base) / 2;
+    so.isovalue = job.isovalue;
+    so.inside = job.inside;
+    so.normals = job.normals;
+    so.indexSpace = job.indexSpace;
+    so.colors = !job.indexSpace;
+    TerminalProgress progress;
+    so.progress = g.quiet ? nullptr : &progress;
+
+    mesh::StreamOptions wo;
+    wo.ascii = job.ascii;
+    wo.normals = job.normals;
+    wo.colors = so.colors;
+    mesh::MeshStreamWriter writer(job.output, wo);
+    volume::SlabStats st;
+    try {
+        volume::meshBySlabs(
+            job.field, so,
+            [&](const volume::SlabPiece& p) {
+                const std::span<const glm::vec3> pos(p.mesh.positions);
+                writer.addVertices(pos.first(p.owned),
+                                   so.normals ? std::span<const glm::vec3>(p.mesh.normals).first(p.owned)
+                                              : std::span<const glm::vec3>(),
+                                   p.mesh.colors);
+                writer.addTriangles(p.mesh.triangles, [&](std::uint32_t v) -> const glm::vec3& {
+                    return p.mesh.positions[v - p.vertexBase];
+                });
+            },
+            &st);
+    } catch (const ResourceError& e) {
+        if (std::string(e.what()).find("outgrew") == std::string::npos) throw;
+        throw ResourceError("a slab of " + job.field->describe() + " (" + std::to_string(so.slabWidth) +
+                            " voxels thick) holds more surface than --memory " + mebibytes(job.memoryLimit) +
+                            " allows (its grid outgrew its share, " + bytesText(double(so.sample.memoryLimit)) +
+                            "): raise --memory or the voxel size");
+    }
+    const auto t1 = Clock::now();
+    writer.commit();
+    const double writeSeconds = std::chrono::duration<double>(Clock::now() - t1).count();
+    const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    if (writer.triangleCount() == 0)
+        std::cerr << "isoforge: warning: no surface in " << job.field->describe() << "; writing an empty mesh\n";
+    if (!g.quiet) {
+        std::printf("meshed %s in %s slabs of %d voxels: %s vertices, %s triangles in %.3f s -> %s\n",
+                    job.field->describe().c_str(), withCommas(st.slabs).c_str(), so.slabWidth,
+                    withCommas(writer.vertexCount()).c_str(), withCommas(writer.triangleCount()).c_str(), seconds,
+                    job.output.c_str());
+        std::printf("peak memory %s (limit %s; the largest slab %s)\n", mebibytes(volume::peakResidentMemory()).c_str(),
+                    mebibytes(job.memoryLimit).c_str(), mebibytes(st.maxSlabBytes).c_str());
+    }
+    if (job.stats)
+        std::printf("sample %.3f s, mesh %.3f s, hand on %.3f s, write %.3f s; %s leaves\n", st.secondsSample,
+                    st.secondsMesh, st.secondsSink, writeSeconds, withCommas(st.leaves).c_str());
+    return 0;
+}
+
+}  // namespace isoforge::app

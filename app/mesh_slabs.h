@@ -1,0 +1,29 @@
+#pragma once
+/// @file `isoforge mesh --memory LIMIT`: a field meshed slab by slab (volume/bricked.h) into a file
+/// written piece by piece (mesh/stream_writer.h); the same bytes as the in-memory path.
+
+#include <cstdint>
+#include <string>
+
+#include "app/commands.h"
+#include "implicit/field.h"
+#include "volume/marching_cubes.h"
+#include "volume/sample.h"
+
+namespace isoforge::app {
+
+struct SlabMeshJob {
+    implicit::FieldPtr field;
+    volume::SampleOptions sample;  ///< voxel size, band, clip (memoryLimit is set from memoryLimit)
+    float isovalue = 0.f;
+    volume::InsideSide inside = volume::InsideSide::Auto;
+    bool normals = false, indexSpace = false, ascii = false, stats = false;
+    std::string output;
+    std::uint64_t memoryLimit = 0;  ///< bytes: the peak resident memory to stay under
+};
+
+/// Meshes the job, prints the summary unless quiet; returns the exit status.
+/// @throw ResourceError when the limit is below what the process already holds, or a slab outgrows it.
+int meshFieldBySlabs(const SlabMeshJob& job, const GlobalOptions& g);
+
+}  // namespace isoforge::app

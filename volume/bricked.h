@@ -1,0 +1,68 @@
+#pragma once
+/// @file Out-of-core meshing of fields: the domain cut into slabs along x, each slab sampled, meshed and
+/// handed on before the next is held, so that memory grows with the surface in one slab rather than
+/// with the whole surface. The pieces, taken in order, are the bytes of the in-memory path's mesh
+/// (sample() then extractIsosurface()): the same vertices in the same order, the same triangles.
+///
+/// Why slabs along x: the mesher orders its 8^3 blocks by (x, y, z), so a slab of whole block columns
+/// is a contiguous run of its vertices and triangles, and the only vertices a slab's triangles take
+/// from elsewhere are those of the next slab's first block column (volume/marching_cubes.h,
+/// extractSlab). Slabs are whole columns of OpenVDB's 128^3 internal nodes, where the sampler's
+/// top-down visit starts, so that each slab's leaves are exactly the whole grid's.
+
+#include <cstdint>
+#include <functional>
+
+#include "core/progress.h"
+#include "implicit/field.h"
+#include "mesh/trimesh.h"
+#include "volume/marching_cubes.h"
+#include "volume/sample.h"
+
+namespace isoforge::volume {
+
+struct SlabOptions {
+    SampleOptions sample;  ///< voxel size, band, clip; memoryLimit: the budget of one slab's grid (0: half the machine)
+    float isovalue = 0.f;
+    InsideSide inside = InsideSide::Auto;
+    bool normals = false;     ///< per-vertex normals from the grid gradient
+    bool indexSpace = false;  ///< positions in voxel units
+    bool colors = false;      ///< per-vertex colours of the field's CSG colour nodes (white where none)
+    int slabWidth = 128;      ///< voxels along x, a multiple of 128
+    Progress* progress = nullptr;
+};
+
+/// One slab's share of the mesh. Vertex v of the whole mesh is mesh.positions[v - vertexBase]; the
+/// first `owned` are the slab's, the rest (ghosts) belong to the next slab, which hands them on.
+/// Colours (if asked) are given for the owned vertices.
+struct SlabPiece {
+    const mesh::TriMesh& mesh;
+    std::size_t owned;
+    std::uint64_t vertexBase;
+    std::int64_t x0, x1;  ///< index-space x range of the slab's blocks
+};
+
+struct SlabStats {
+    std::size_t slabs = 0;  ///< slabs that were sampled (a slab with no top region is skipped)
+    std::uint64_t leaves = 0, vertices = 0, triangles = 0;
+    std::uint64_t blocks = 0;        ///< 8^3 blocks the mesher visited (the slab's, and the halo's)
+    std::uint64_t maxSlabBytes = 0;  ///< the largest slab's grid and mesh, in memory at once
+    double secondsSample = 0, secondsMesh = 0, secondsSink = 0;
+};
+
+/// Index-space x origins of the slabs sampleAndMeshBySlabs visits for `field`, first to last
+/// (each slab is [origin, origin + slabWidth)).
+std::vector<std::int64_t> slabOrigins(const implicit::Field& field, const SampleOptions& sample, int slabWidth);
+
+/// Samples and meshes `field` slab by slab, calling `sink` with each slab's piece in order.
+/// @throw ResourceError when one slab outgrows options.sample.memoryLimit (the message says how far it got).
+void meshBySlabs(const implicit::FieldPtr& field, const SlabOptions& options,
+                 const std::function<void(const SlabPiece&)>& sink, SlabStats* stats = nullptr);
+
+/// The piece of the slab [x0, x1) of `field` (the first slab open below, the last open above): for a
+/// range of slabs on one rank of a distributed job (the MPI layer), or one slab at a time.
+/// @return the number of vertices the slab owns; `out` as SlabPiece describes
+std::size_t meshSlab(const implicit::FieldPtr& field, const SlabOptions& options, std::int64_t x0, std::int64_t x1,
+                     bool first, bool last, std::uint64_t vertexBase, mesh::TriMesh& out, SlabStats* stats = nullptr);
+
+}  // namespace isoforge::volume
