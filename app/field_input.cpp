@@ -62,8 +62,8 @@ bool namesField(const std::string& file, const FieldInput& in) {
     return extensionOf(file) == ".vm" || isSceneFile(file);
 }
 
-implicit::FieldPtr makeField(const std::string& file, const FieldInput& in, implicit::Box3& clip,
-                             csg::Scene* sceneOut) {
+implicit::FieldPtr makeField(const std::string& file, const FieldInput& in, implicit::Box3& clip, csg::Scene* sceneOut,
+                             bool printWarnings) {
     const int sources = !file.empty() + !in.shape.empty() + !in.expr.empty();
     if (sources != 1) throw CLI::ValidationError("input", "give exactly one of: a file, --shape, --expr");
     clip = implicit::Box3::everything();
@@ -75,7 +75,8 @@ implicit::FieldPtr makeField(const std::string& file, const FieldInput& in, impl
     } else if (isSceneFile(file)) {
         csg::Scene scene = csg::readScene(file, in.defines);
         for (const auto& w : scene.warnings)
-            std::fprintf(stderr, "isoforge: warning: %s: %s\n", w.loc.toString().c_str(), w.message.c_str());
+            if (printWarnings)
+                std::fprintf(stderr, "isoforge: warning: %s: %s\n", w.loc.toString().c_str(), w.message.c_str());
         f = scene.root;
         if (sceneOut) *sceneOut = std::move(scene);
     } else {

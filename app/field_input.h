@@ -37,8 +37,9 @@ bool namesField(const std::string& file, const FieldInput& in);
 
 /// The field and the box it is clipped to (everything, --box, or [-1,1]^3 for .vm files).
 /// @throw ParseError / IoError / CLI::ValidationError.
+/// `printWarnings`: the scene's warnings on stderr (off on all but one rank of a distributed job).
 implicit::FieldPtr makeField(const std::string& file, const FieldInput& in, implicit::Box3& clip,
-                             csg::Scene* sceneOut = nullptr);
+                             csg::Scene* sceneOut = nullptr, bool printWarnings = true);
 
 /// Voxel size from --voxel or --resolution (default 256 along the longest side of the domain).
 float voxelSize(const implicit::Field& field, const implicit::Box3& clip, const FieldInput& in);

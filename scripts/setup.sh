@@ -23,6 +23,8 @@ packages=(
   libopenvdb-tools
   # OpenSCAD models (.scad input runs openscad) and its regression corpus (tests and bench/openscad_corpus.py)
   openscad openscad-testing-data
+  # many machines: isoforge-mpi (mpi/, docs/scaling.md) on OpenMPI
+  libopenmpi-dev openmpi-bin
   # tests and benchmarks
   libgtest-dev libbenchmark-dev
   # the Python package (python/, docs/python.md) and its tests; scikit-image is the baseline of

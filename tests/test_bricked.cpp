@@ -271,3 +271,26 @@ TEST(StreamWriter, NoFileWithoutCommitAndGlbIsRefused) {
     EXPECT_THROW(mesh::MeshStreamWriter(dir / "a.glb", {}), IoError);
     std::filesystem::remove_all(dir);
 }
+
+TEST(Slabs, PartitionsAreContiguousBalancedAndCoverEverySlab) {
+    // Two spheres at the ends of a long box of empty space: the slabs with surface go to different
+    // parts, and no part is left with only empty slabs while another holds both spheres.
+    const auto field = csg::parseScene("sphere(1); translate([20, 0, 0]) sphere(1);", "p.isf").root;
+    volume::SampleOptions so;
+    so.voxelSize = 0.01f;
+    const std::size_t slabs = volume::slabOrigins(*field, so, 128).size();
+    for (int parts : {1, 2, 3, 4, 7, 40}) {
+        const std::vector<std::size_t> begin = volume::partitionSlabs(*field, so, 128, parts);
+        ASSERT_EQ(begin.size(), static_cast<std::size_t>(parts) + 1);
+        EXPECT_EQ(begin.front(), 0u);
+        EXPECT_EQ(begin.back(), slabs);
+        for (int p = 0; p < parts; ++p) EXPECT_LE(begin[p], begin[p + 1]);
+        EXPECT_EQ(begin, volume::partitionSlabs(*field, so, 128, parts));  // deterministic
+    }
+    // Two parts: one sphere each (the split lies between them, not at the middle slab count).
+    const std::vector<std::size_t> two = volume::partitionSlabs(*field, so, 128, 2);
+    const std::vector<std::int64_t> origins = volume::slabOrigins(*field, so, 128);
+    const std::int64_t split = origins[two[1]];
+    EXPECT_GT(split, 100);        // past the first sphere (x <= 100 voxels)
+    EXPECT_LE(split, 2000 - 100);  // before the second (x >= 1900 voxels)
+}

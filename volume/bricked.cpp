@@ -34,6 +34,31 @@ std::vector<std::int64_t> slabOrigins(const implicit::Field& field, const Sample
     return origins;
 }
 
+std::vector<std::size_t> partitionSlabs(const implicit::Field& field, const SampleOptions& sample, int slabWidth,
+                                        int parts) {
+    if (parts < 1) throw std::invalid_argument("at least one part");
+    const std::vector<std::int64_t> origins = slabOrigins(field, sample, slabWidth);
+    // Cost of a slab: a unit for its own overhead, and its top regions the surface may cross.
+    std::vector<double> cost(origins.size(), 1.0);
+    for (const auto& [x, regions] : surfaceRegionsByColumn(field, sample)) {
+        const auto it = std::upper_bound(origins.begin(), origins.end(), x);
+        if (it != origins.begin()) cost[static_cast<std::size_t>(it - origins.begin() - 1)] += double(regions);
+    }
+    double total = 0;
+    for (double c : cost) total += c;
+    // Part p ends where the running cost first reaches (p + 1) / parts of the total.
+    std::vector<std::size_t> begin(static_cast<std::size_t>(parts) + 1, origins.size());
+    begin[0] = 0;
+    double running = 0;
+    std::size_t s = 0;
+    for (int p = 1; p < parts; ++p) {
+        const double target = total * p / parts;
+        while (s < origins.size() && running + cost[s] / 2 < target) running += cost[s++];
+        begin[static_cast<std::size_t>(p)] = s;
+    }
+    return begin;
+}
+
 std::size_t meshSlab(const implicit::FieldPtr& field, const SlabOptions& options, std::int64_t x0, std::int64_t x1,
                      bool first, bool last, std::uint64_t vertexBase, mesh::TriMesh& out, SlabStats* stats) {
     SlabStats local;

@@ -54,6 +54,12 @@ struct SlabStats {
 /// (each slab is [origin, origin + slabWidth)).
 std::vector<std::int64_t> slabOrigins(const implicit::Field& field, const SampleOptions& sample, int slabWidth);
 
+/// Contiguous runs of the slabs of slabOrigins() for `parts` workers (the ranks of a distributed
+/// job), balanced by the surface each slab may hold (surfaceRegionsByColumn): worker p takes slabs
+/// [begin[p], begin[p + 1]). The same answer on every rank, whatever it runs on. Runs may be empty.
+std::vector<std::size_t> partitionSlabs(const implicit::Field& field, const SampleOptions& sample, int slabWidth,
+                                        int parts);
+
 /// Samples and meshes `field` slab by slab, calling `sink` with each slab's piece in order.
 /// @throw ResourceError when one slab outgrows options.sample.memoryLimit (the message says how far it got).
 void meshBySlabs(const implicit::FieldPtr& field, const SlabOptions& options,

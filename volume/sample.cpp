@@ -149,6 +149,33 @@ double estimateSurfaceVoxels(const implicit::Field& field, const SampleOptions& 
     return boxArea(hi - lo + 1.0);
 }
 
+std::vector<std::pair<std::int64_t, std::uint64_t>> surfaceRegionsByColumn(const implicit::Field& field,
+                                                                           const SampleOptions& o) {
+    const Box3 domain = sampleDomain(field, o.clip);
+    if (!domain.isBounded() || domain.isEmpty() || !(o.voxelSize > 0)) return {};
+    const bool distance = field.isDistance();
+    const float voxel = o.voxelSize, band = distance ? o.halfWidth * voxel : 0.f;
+    const auto [lo, hi] = indexRange(domain, voxel, band);
+    const auto top = [](double v) { return static_cast<std::int64_t>(std::floor(v / kTop)); };
+    const std::int64_t x0 = top(lo.x), x1 = top(hi.x), y0 = top(lo.y), y1 = top(hi.y), z0 = top(lo.z), z1 = top(hi.z);
+    std::vector<std::pair<std::int64_t, std::uint64_t>> columns(static_cast<std::size_t>(x1 - x0 + 1));
+    tbb::parallel_for(std::int64_t{0}, x1 - x0 + 1, [&](std::int64_t i) {
+        std::uint64_t count = 0;
+        const float m = distance ? 0.f : voxel;
+        for (std::int64_t y = y0; y <= y1; ++y)
+            for (std::int64_t z = z0; z <= z1; ++z) {
+                // The sampler's first test of a top region (Sampler::visit).
+                const glm::vec3 origin(float((x0 + i) * kTop), float(y * kTop), float(z * kTop));
+                const Box3 box{origin * voxel - glm::vec3(m), (origin + glm::vec3(kTop - 1)) * voxel + glm::vec3(m)};
+                const implicit::Interval b = field.bound(box);
+                const float outsideAbove = distance ? band : 0.f;
+                count += !(b.lo >= outsideAbove) && !(b.hi <= -outsideAbove && b.hi < 0.f);
+            }
+        columns[static_cast<std::size_t>(i)] = {(x0 + i) * kTop, count};
+    });
+    return columns;
+}
+
 openvdb::FloatGrid::Ptr sample(const FieldPtr& field, const SampleOptions& o, SampleStats* statsOut) {
     const auto t0 = std::chrono::steady_clock::now();
     if (!(o.voxelSize > 0) || !std::isfinite(o.voxelSize)) throw std::invalid_argument("voxel size must be positive");

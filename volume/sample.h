@@ -3,6 +3,7 @@
 
 #include <cstdint>
 #include <utility>
+#include <vector>
 
 #include <openvdb/openvdb.h>
 
@@ -59,6 +60,12 @@ double estimateSampleBytes(const implicit::Field& field, const SampleOptions& op
 /// The area, in voxel faces, of the surface those estimates assume (the domain's box): about the
 /// number of vertices of its mesh, and half the number of triangles.
 double estimateSurfaceVoxels(const implicit::Field& field, const SampleOptions& options);
+
+/// For each column of 128^3 top regions along x (its index-space x origin), how many of its regions
+/// the surface may cross (the sampler's first test): where the work of sampling and meshing lies,
+/// for balancing slabs across the ranks of a distributed job.
+std::vector<std::pair<std::int64_t, std::uint64_t>> surfaceRegionsByColumn(const implicit::Field& field,
+                                                                           const SampleOptions& options);
 
 /// The region sampled for `field` under `clip` (bounds ∩ clip).
 implicit::Box3 sampleDomain(const implicit::Field& field, const implicit::Box3& clip);

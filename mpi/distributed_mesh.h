@@ -1,0 +1,36 @@
+#pragma once
+/// @file One rank's share of a distributed meshing job: a contiguous run of the slabs of
+/// volume/bricked.h, chosen by partitionSlabs, meshed with TBB inside the rank. The ranks exchange
+/// only counts: each samples a three-block-column halo around its run itself (volume/bricked.h), so no
+/// voxel or vertex crosses the network, and the vertex numbers follow from an exclusive scan of the
+/// ranks' vertex counts.
+
+#include <cstdint>
+#include <string>
+
+#include <mpi.h>
+
+#include "implicit/field.h"
+#include "mesh/trimesh.h"
+#include "volume/bricked.h"
+
+namespace isoforge::mpi {
+
+/// A rank's part of the whole mesh: its vertices (the whole mesh's vertexBase ..), then the ghost
+/// vertices of the next rank's first slab that its triangles use; triangles numbered as in the
+/// whole mesh. Colours for the owned vertices, if the job has them.
+struct RankPiece {
+    mesh::TriMesh mesh;
+    std::size_t owned = 0;
+    std::uint64_t vertexBase = 0, triangleBase = 0;  ///< where the rank's part starts in the whole mesh
+    std::uint64_t totalVertices = 0, totalTriangles = 0;
+    std::size_t firstSlab = 0, slabs = 0;  ///< the rank's run of slabs
+    volume::SlabStats stats;
+    double secondsMpi = 0;             ///< time in MPI calls (the scans)
+    std::uint64_t bytesExchanged = 0;  ///< bytes this rank sent in them
+};
+
+/// Meshes this rank's slabs and numbers them in the whole mesh (collective over `comm`).
+RankPiece meshRankSlabs(const implicit::FieldPtr& field, const volume::SlabOptions& options, MPI_Comm comm);
+
+}  // namespace isoforge::mpi
