@@ -291,6 +291,6 @@ TEST(Slabs, PartitionsAreContiguousBalancedAndCoverEverySlab) {
     const std::vector<std::size_t> two = volume::partitionSlabs(*field, so, 128, 2);
     const std::vector<std::int64_t> origins = volume::slabOrigins(*field, so, 128);
     const std::int64_t split = origins[two[1]];
-    EXPECT_GT(split, 100);        // past the first sphere (x <= 100 voxels)
+    EXPECT_GT(split, 100);         // past the first sphere (x <= 100 voxels)
     EXPECT_LE(split, 2000 - 100);  // before the second (x >= 1900 voxels)
 }
