@@ -137,6 +137,44 @@ openvdb::FloatGrid::Ptr sampleField(const implicit::FieldPtr& field, volume::Sam
 
 namespace {
 
+/// `mesh VOLUME --memory`: a dense volume converted and meshed a slab at a time (the volume itself is
+/// held), or a .vdb grid meshed a slab at a time (the grid is held, the mesh is not).
+int meshVolumeFileBySlabs(const std::string& input, const std::string& gridName, const VolumeInput& vin, int smooth,
+                          std::uint64_t memoryLimit, float iso, const std::string& inside, bool normals,
+                          bool indexSpace, bool ascii, bool stats, bool sharp, bool maxError, const std::string& output,
+                          const GlobalOptions& g) {
+    if (input.empty()) throw CLI::ValidationError("input", "give a volume file, a .vm model, --shape or --expr");
+    if (sharp || maxError)
+        throw CLI::ValidationError(sharp ? "--sharp" : "--max-error",
+                                   "feature vertices and simplification work on the whole mesh: not with --memory");
+    if (smooth > 0) throw CLI::ValidationError("--smooth", "smoothing looks across slabs: not with --memory");
+    if (vin.tolerance > 0)
+        throw CLI::ValidationError("--tolerance", "a tolerance prunes across slabs: not with --memory");
+    if (!mesh::MeshStreamWriter::canStream(output))
+        throw CLI::ValidationError("--memory", "a mesh written in slabs is .ply, .obj or .stl");
+    SlabMeshJob job;
+    job.what = input;
+    job.isovalue = iso;
+    job.inside = inside == "below"   ? volume::InsideSide::Below
+                 : inside == "above" ? volume::InsideSide::Above
+                                     : volume::InsideSide::Auto;
+    job.normals = normals;
+    job.indexSpace = indexSpace;
+    job.ascii = ascii;
+    job.stats = stats;
+    job.output = output;
+    job.memoryLimit = memoryLimit;
+    volume::DenseVolume dense;
+    if (isDenseVolumeFile(input)) {
+        dense = loadVolume(input, vin, g);
+        job.volume = &dense;
+    } else {
+        requireVdb(input);
+        job.grid = volume::readFloatGrid(input, gridName.empty() ? std::nullopt : std::optional(gridName));
+    }
+    return meshBySlabsToFile(job, g);
+}
+
 /// `mesh --labels`: one closed, coloured surface per label of a label map.
 int meshLabels(const std::string& input, const std::string& output, const std::string& colors, bool split,
                const std::string& method, const VolumeInput& vin, const GlobalOptions& g, bool ascii) {
@@ -305,6 +343,7 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                         std::printf("meshing in slabs: plain marching cubes (feature vertices need the whole mesh)\n");
                     SlabMeshJob job;
                     job.field = field;
+                    job.what = field->describe();
                     job.sample = so;
                     job.isovalue = a->iso;
                     job.inside = a->inside == "below"   ? volume::InsideSide::Below
@@ -316,14 +355,14 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                     job.stats = a->stats;
                     job.output = a->output;
                     job.memoryLimit = memoryLimit;
-                    return meshFieldBySlabs(job, g);
+                    return meshBySlabsToFile(job, g);
                 }
                 grid = sampleField(field, so, g, g.quiet ? nullptr : &progress, a->stats);
+            } else if (memoryLimit > 0) {
+                return meshVolumeFileBySlabs(a->input, a->grid, a->volume, a->smooth, memoryLimit, a->iso, a->inside,
+                                             a->normals, a->indexSpace, a->ascii, a->stats, a->sharp, a->maxError > 0,
+                                             a->output, g);
             } else {
-                if (memoryLimit > 0)
-                    throw CLI::ValidationError("--memory",
-                                               "volume files are meshed in memory; --memory is for fields "
-                                               "(.isf, .csg, .scad, .vm, --shape, --expr)");
                 grid = loadOrSample(a->input, a->grid, a->field, g, g.quiet ? nullptr : &progress, a->stats, &field,
                                     &a->volume, a->smooth);
             }

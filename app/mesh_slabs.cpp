@@ -10,6 +10,7 @@
 #include "core/progress.h"
 #include "mesh/stream_writer.h"
 #include "volume/bricked.h"
+#include "volume/dense_grid.h"
 #include "volume/machine_memory.h"
 
 namespace isoforge::app {
@@ -20,7 +21,7 @@ std::string mebibytes(std::uint64_t bytes) {
 }
 }  // namespace
 
-int meshFieldBySlabs(const SlabMeshJob& job, const GlobalOptions& g) {
+int meshBySlabsToFile(const SlabMeshJob& job, const GlobalOptions& g) {
     using Clock = std::chrono::steady_clock;
     const auto t0 = Clock::now();
     // What the process holds already (code, libraries, the scene) is not the slabs' to spend; of the
@@ -33,15 +34,15 @@ int meshFieldBySlabs(const SlabMeshJob& job, const GlobalOptions& g) {
                             mebibytes(base) + " before it starts; give at least " + mebibytes(base + kMinimum));
     // The mesh goes to disk, twice over (scratch files, then the file): refuse what the disk cannot take.
     const double perVertex = 12.0 * (1 + job.normals) + 3 + 2 * 13.0;  // PLY: a vertex, two faces
-    const double diskBytes = 2 * volume::estimateSurfaceVoxels(*job.field, job.sample) * perVertex;
+    const double diskBytes = job.field ? 2 * volume::estimateSurfaceVoxels(*job.field, job.sample) * perVertex : 0;
     std::filesystem::path dir = std::filesystem::absolute(job.output).parent_path();
     std::error_code ec;
     const std::filesystem::space_info space = std::filesystem::space(dir, ec);
     if (!ec && diskBytes > static_cast<double>(space.available))
-        throw ResourceError("meshing " + job.field->describe() + " at voxel size " +
-                            std::to_string(job.sample.voxelSize) + " in slabs would need about " +
-                            bytesText(diskBytes) + " of disk for the mesh and its scratch files; " + dir.string() +
-                            " has " + bytesText(static_cast<double>(space.available)) +
+        throw ResourceError("meshing " + job.what + " at voxel size " + std::to_string(job.sample.voxelSize) +
+                            " in slabs would need about " + bytesText(diskBytes) +
+                            " of disk for the mesh and its scratch files; " + dir.string() + " has " +
+                            bytesText(static_cast<double>(space.available)) +
                             " free. Use a larger voxel size or a lower resolution.");
     volume::SlabOptions so;
     so.sample = job.sample;
@@ -50,7 +51,7 @@ int meshFieldBySlabs(const SlabMeshJob& job, const GlobalOptions& g) {
     so.inside = job.inside;
     so.normals = job.normals;
     so.indexSpace = job.indexSpace;
-    so.colors = !job.indexSpace;
+    so.colors = job.field && !job.indexSpace;
     TerminalProgress progress;
     so.progress = g.quiet ? nullptr : &progress;
 
@@ -60,23 +61,30 @@ int meshFieldBySlabs(const SlabMeshJob& job, const GlobalOptions& g) {
     wo.colors = so.colors;
     mesh::MeshStreamWriter writer(job.output, wo);
     volume::SlabStats st;
+    const auto sink = [&](const volume::SlabPiece& p) {
+        const std::span<const glm::vec3> pos(p.mesh.positions);
+        writer.addVertices(
+            pos.first(p.owned),
+            so.normals ? std::span<const glm::vec3>(p.mesh.normals).first(p.owned) : std::span<const glm::vec3>(),
+            p.mesh.colors);
+        writer.addTriangles(p.mesh.triangles,
+                            [&](std::uint32_t v) -> const glm::vec3& { return p.mesh.positions[v - p.vertexBase]; });
+    };
     try {
-        volume::meshBySlabs(
-            job.field, so,
-            [&](const volume::SlabPiece& p) {
-                const std::span<const glm::vec3> pos(p.mesh.positions);
-                writer.addVertices(pos.first(p.owned),
-                                   so.normals ? std::span<const glm::vec3>(p.mesh.normals).first(p.owned)
-                                              : std::span<const glm::vec3>(),
-                                   p.mesh.colors);
-                writer.addTriangles(p.mesh.triangles, [&](std::uint32_t v) -> const glm::vec3& {
-                    return p.mesh.positions[v - p.vertexBase];
-                });
-            },
-            &st);
+        if (job.field) {
+            volume::meshBySlabs(job.field, so, sink, &st);
+        } else if (job.volume) {
+            volume::ToGridOptions go;
+            go.background = job.volume->range().first;  // as the whole volume's grid has it
+            volume::meshVolumeBySlabs(volume::VolumeView{job.volume->values.data(), job.volume->dims,
+                                                         job.volume->indexToWorld, job.volume->format},
+                                      go, so, sink, &st);
+        } else {
+            volume::meshGridBySlabs(*job.grid, so, sink, &st);
+        }
     } catch (const ResourceError& e) {
         if (std::string(e.what()).find("outgrew") == std::string::npos) throw;
-        throw ResourceError("a slab of " + job.field->describe() + " (" + std::to_string(so.slabWidth) +
+        throw ResourceError("a slab of " + job.what + " (" + std::to_string(so.slabWidth) +
                             " voxels thick) holds more surface than --memory " + mebibytes(job.memoryLimit) +
                             " allows (its grid outgrew its share, " + bytesText(double(so.sample.memoryLimit)) +
                             "): raise --memory or the voxel size");
@@ -86,12 +94,11 @@ int meshFieldBySlabs(const SlabMeshJob& job, const GlobalOptions& g) {
     const double writeSeconds = std::chrono::duration<double>(Clock::now() - t1).count();
     const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
     if (writer.triangleCount() == 0)
-        std::cerr << "isoforge: warning: no surface in " << job.field->describe() << "; writing an empty mesh\n";
+        std::cerr << "isoforge: warning: no surface in " << job.what << "; writing an empty mesh\n";
     if (!g.quiet) {
-        std::printf("meshed %s in %s slabs of %d voxels: %s vertices, %s triangles in %.3f s -> %s\n",
-                    job.field->describe().c_str(), withCommas(st.slabs).c_str(), so.slabWidth,
-                    withCommas(writer.vertexCount()).c_str(), withCommas(writer.triangleCount()).c_str(), seconds,
-                    job.output.c_str());
+        std::printf("meshed %s in %s slabs of %d voxels: %s vertices, %s triangles in %.3f s -> %s\n", job.what.c_str(),
+                    withCommas(st.slabs).c_str(), so.slabWidth, withCommas(writer.vertexCount()).c_str(),
+                    withCommas(writer.triangleCount()).c_str(), seconds, job.output.c_str());
         std::printf("peak memory %s (limit %s; the largest slab %s)\n", mebibytes(volume::peakResidentMemory()).c_str(),
                     mebibytes(job.memoryLimit).c_str(), mebibytes(st.maxSlabBytes).c_str());
     }

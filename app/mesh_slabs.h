@@ -7,13 +7,19 @@
 
 #include "app/commands.h"
 #include "implicit/field.h"
+#include "volume/dense_volume.h"
 #include "volume/marching_cubes.h"
 #include "volume/sample.h"
 
 namespace isoforge::app {
 
+/// One of: a field (sampled a slab at a time), a dense volume (converted a slab at a time; the volume
+/// itself is held), a grid already in memory (only the mesh is held a slab at a time).
 struct SlabMeshJob {
     implicit::FieldPtr field;
+    const volume::DenseVolume* volume = nullptr;
+    openvdb::FloatGrid::ConstPtr grid;
+    std::string what;              ///< for messages: the field, the file
     volume::SampleOptions sample;  ///< voxel size, band, clip (memoryLimit is set from memoryLimit)
     float isovalue = 0.f;
     volume::InsideSide inside = volume::InsideSide::Auto;
@@ -22,8 +28,8 @@ struct SlabMeshJob {
     std::uint64_t memoryLimit = 0;  ///< bytes: the peak resident memory to stay under
 };
 
-/// Meshes the job, prints the summary unless quiet; returns the exit status.
+/// Meshes the job into job.output, prints the summary unless quiet; returns the exit status.
 /// @throw ResourceError when the limit is below what the process already holds, or a slab outgrows it.
-int meshFieldBySlabs(const SlabMeshJob& job, const GlobalOptions& g);
+int meshBySlabsToFile(const SlabMeshJob& job, const GlobalOptions& g);
 
 }  // namespace isoforge::app

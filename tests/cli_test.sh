@@ -320,6 +320,17 @@ expect_exit 1 "mesh --memory (a slab outgrows it)" "$bin" mesh --shape "sphere(r
 grep -q "raise --memory" "$tmp/err" && ok || bad "mesh --memory: no advice when a slab outgrows the limit"
 [ ! -e "$tmp/x.ply" ] && ok || bad "mesh --memory: a partial output was left"
 ls -a "$tmp" | grep -q scratch && bad "mesh --memory: scratch files left behind" || ok
+# Volumes with --memory: a real CT (NRRD) converted a slab at a time, and a .vdb grid, the same bytes.
+ct="$shared/volumes/headsq-ct-nrrd/quarter.nhdr"
+if [ -f "$ct" ]; then
+    "$bin" --quiet mesh "$ct" --iso 1000 --normals -o "$tmp/ct_whole.ply"
+    expect_exit 0 "mesh CT --memory" "$bin" mesh "$ct" --iso 1000 --normals -o "$tmp/ct_slabs.ply" --memory 500M
+    cmp -s "$tmp/ct_whole.ply" "$tmp/ct_slabs.ply" && ok || bad "mesh CT --memory: not the in-memory path's bytes"
+    expect_exit 2 "mesh CT --memory --smooth" "$bin" mesh "$ct" --iso 1000 --smooth 1 -o "$tmp/x.ply" --memory 500M
+fi
+"$bin" --quiet mesh "$src/data/sphere.vdb" -o "$tmp/vdb_whole.stl"
+expect_exit 0 "mesh .vdb --memory" "$bin" mesh "$src/data/sphere.vdb" -o "$tmp/vdb_slabs.stl" --memory 500M
+cmp -s "$tmp/vdb_whole.stl" "$tmp/vdb_slabs.stl" && ok || bad "mesh .vdb --memory: not the in-memory path's bytes"
 
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

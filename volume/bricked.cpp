@@ -59,21 +59,19 @@ std::vector<std::size_t> partitionSlabs(const implicit::Field& field, const Samp
     return begin;
 }
 
-std::size_t meshSlab(const implicit::FieldPtr& field, const SlabOptions& options, std::int64_t x0, std::int64_t x1,
-                     bool first, bool last, std::uint64_t vertexBase, mesh::TriMesh& out, SlabStats* stats) {
-    SlabStats local;
-    SlabStats& st = stats ? *stats : local;
+namespace {
+
+/// A slab's grid: the voxels with x in [xBegin, xEnd), the rest background.
+using SlabGrid = std::function<openvdb::FloatGrid::Ptr(std::int64_t xBegin, std::int64_t xEnd, SlabStats& stats)>;
+
+std::size_t meshGridSlab(const SlabGrid& makeGrid, const implicit::Field* colorsFrom, const SlabOptions& options,
+                         std::int64_t x0, std::int64_t x1, bool first, bool last, std::uint64_t vertexBase,
+                         mesh::TriMesh& out, SlabStats& st) {
     // The slab, a block column below it (its cells' missing neighbours, its vertices' gradients) and
     // two above (the owners of its ghost vertices, and their lower neighbours).
-    SampleOptions so = options.sample;
-    so.xBegin = x0 - 8;
-    so.xEnd = x1 + 16;
-    so.progress = nullptr;
     auto t0 = Clock::now();
-    SampleStats ss;
-    const openvdb::FloatGrid::Ptr grid = sample(field, so, &ss);
+    const openvdb::FloatGrid::Ptr grid = makeGrid(x0 - 8, x1 + 16, st);
     st.secondsSample += secondsSince(t0);
-    st.leaves += ss.leaves;
 
     t0 = Clock::now();
     MeshingOptions mo;
@@ -85,10 +83,10 @@ std::size_t meshSlab(const implicit::FieldPtr& field, const SlabOptions& options
     MeshingStats ms;
     const std::size_t owned = extractSlab(*grid, mo, range, out, &ms);
     st.blocks += ms.blocks;
-    if (options.colors) {
+    if (options.colors && colorsFrom) {
         out.colors.resize(owned);
         tbb::parallel_for(std::size_t{0}, owned, [&](std::size_t i) {
-            const glm::vec4 col = field->colorAt(out.positions[i]);
+            const glm::vec4 col = colorsFrom->colorAt(out.positions[i]);
             out.colors[i] = col.a > 0 ? glm::vec3(col) : glm::vec3(1.f);
         });
     } else {
@@ -103,18 +101,16 @@ std::size_t meshSlab(const implicit::FieldPtr& field, const SlabOptions& options
     return owned;
 }
 
-void meshBySlabs(const implicit::FieldPtr& field, const SlabOptions& options,
-                 const std::function<void(const SlabPiece&)>& sink, SlabStats* stats) {
-    SlabStats local;
-    SlabStats& st = stats ? *stats : local;
-    const std::vector<std::int64_t> origins = slabOrigins(*field, options.sample, options.slabWidth);
+void meshSlabsInOrder(const std::vector<std::int64_t>& origins, const SlabGrid& makeGrid,
+                      const implicit::Field* colorsFrom, const SlabOptions& options,
+                      const std::function<void(const SlabPiece&)>& sink, SlabStats& st) {
     if (options.progress) options.progress->begin("meshing slabs");
     std::uint64_t vertexBase = 0;
     mesh::TriMesh piece;
     for (std::size_t s = 0; s < origins.size(); ++s) {
         const std::int64_t x0 = origins[s], x1 = x0 + options.slabWidth;
         const std::size_t owned =
-            meshSlab(field, options, x0, x1, s == 0, s + 1 == origins.size(), vertexBase, piece, &st);
+            meshGridSlab(makeGrid, colorsFrom, options, x0, x1, s == 0, s + 1 == origins.size(), vertexBase, piece, st);
         ++st.slabs;
         const auto t0 = Clock::now();
         sink(SlabPiece{piece, owned, vertexBase, x0, x1});
@@ -123,6 +119,78 @@ void meshBySlabs(const implicit::FieldPtr& field, const SlabOptions& options,
         if (options.progress) options.progress->update(s + 1, origins.size());
     }
     if (options.progress) options.progress->end();
+}
+
+SlabGrid fieldSlabs(const implicit::FieldPtr& field, const SlabOptions& options) {
+    return [&field, &options](std::int64_t xBegin, std::int64_t xEnd, SlabStats& st) {
+        SampleOptions so = options.sample;
+        so.xBegin = xBegin;
+        so.xEnd = xEnd;
+        so.progress = nullptr;
+        SampleStats ss;
+        openvdb::FloatGrid::Ptr grid = sample(field, so, &ss);
+        st.leaves += ss.leaves;
+        return grid;
+    };
+}
+
+}  // namespace
+
+std::size_t meshSlab(const implicit::FieldPtr& field, const SlabOptions& options, std::int64_t x0, std::int64_t x1,
+                     bool first, bool last, std::uint64_t vertexBase, mesh::TriMesh& out, SlabStats* stats) {
+    SlabStats local;
+    return meshGridSlab(fieldSlabs(field, options), field.get(), options, x0, x1, first, last, vertexBase, out,
+                        stats ? *stats : local);
+}
+
+void meshBySlabs(const implicit::FieldPtr& field, const SlabOptions& options,
+                 const std::function<void(const SlabPiece&)>& sink, SlabStats* stats) {
+    SlabStats local;
+    meshSlabsInOrder(slabOrigins(*field, options.sample, options.slabWidth), fieldSlabs(field, options), field.get(),
+                     options, sink, stats ? *stats : local);
+}
+
+void meshVolumeBySlabs(const VolumeView& volume, const ToGridOptions& grid, const SlabOptions& options,
+                       const std::function<void(const SlabPiece&)>& sink, SlabStats* stats) {
+    if (options.slabWidth <= 0 || options.slabWidth % kNode)
+        throw std::invalid_argument("the slab width is a positive multiple of 128 voxels");
+    if (!grid.background) throw std::invalid_argument("a volume's slabs need the whole volume's background");
+    std::vector<std::int64_t> origins;
+    for (std::int64_t x = 0; x < std::max<std::int64_t>(volume.dims[0], 1); x += options.slabWidth)
+        origins.push_back(x);
+    const SlabGrid make = [&](std::int64_t xBegin, std::int64_t xEnd, SlabStats& st) {
+        ToGridOptions o = grid;
+        o.xBegin = xBegin;
+        o.xEnd = xEnd;
+        o.progress = nullptr;
+        openvdb::FloatGrid::Ptr g = toGrid(volume, o);
+        st.leaves += g->tree().leafCount();
+        return g;
+    };
+    SlabStats local;
+    meshSlabsInOrder(origins, make, nullptr, options, sink, stats ? *stats : local);
+}
+
+void meshGridBySlabs(const openvdb::FloatGrid& grid, const SlabOptions& options,
+                     const std::function<void(const SlabPiece&)>& sink, SlabStats* stats) {
+    if (options.slabWidth <= 0 || options.slabWidth % kNode)
+        throw std::invalid_argument("the slab width is a positive multiple of 128 voxels");
+    // The first slab is open below and the last open above: any run of origins covers every block.
+    openvdb::CoordBBox box = grid.evalActiveVoxelBoundingBox();
+    openvdb::CoordBBox leaves;
+    grid.tree().evalLeafBoundingBox(leaves);
+    box.expand(leaves);
+    std::vector<std::int64_t> origins;
+    if (box.empty())
+        origins.push_back(0);
+    else
+        for (std::int64_t x = floorTo(box.min().x(), kNode); x <= box.max().x(); x += options.slabWidth)
+            origins.push_back(x);
+    const SlabGrid same = [&grid](std::int64_t, std::int64_t, SlabStats&) {
+        return openvdb::ConstPtrCast<openvdb::FloatGrid>(grid.copy());  // shares the tree: no copy of the voxels
+    };
+    SlabStats local;
+    meshSlabsInOrder(origins, same, nullptr, options, sink, stats ? *stats : local);
 }
 
 }  // namespace isoforge::volume

@@ -16,6 +16,7 @@
 #include "core/progress.h"
 #include "implicit/field.h"
 #include "mesh/trimesh.h"
+#include "volume/dense_grid.h"
 #include "volume/marching_cubes.h"
 #include "volume/sample.h"
 
@@ -64,6 +65,17 @@ std::vector<std::size_t> partitionSlabs(const implicit::Field& field, const Samp
 /// @throw ResourceError when one slab outgrows options.sample.memoryLimit (the message says how far it got).
 void meshBySlabs(const implicit::FieldPtr& field, const SlabOptions& options,
                  const std::function<void(const SlabPiece&)>& sink, SlabStats* stats = nullptr);
+
+/// The same for a dense volume (medical files, raw): each slab's grid is the voxels toGrid() would
+/// hold there (`grid` gives the background, the volume's minimum, and the tolerance), so the pieces are
+/// the bytes of toGrid() then extractIsosurface(). The volume itself stays in memory.
+/// @throw std::invalid_argument without grid.background (a slab's minimum is not the volume's)
+void meshVolumeBySlabs(const VolumeView& volume, const ToGridOptions& grid, const SlabOptions& options,
+                       const std::function<void(const SlabPiece&)>& sink, SlabStats* stats = nullptr);
+
+/// The same for a grid already in memory (a .vdb file): only the mesh is held a slab at a time.
+void meshGridBySlabs(const openvdb::FloatGrid& grid, const SlabOptions& options,
+                     const std::function<void(const SlabPiece&)>& sink, SlabStats* stats = nullptr);
 
 /// The piece of the slab [x0, x1) of `field` (the first slab open below, the last open above): for a
 /// range of slabs on one rank of a distributed job (the MPI layer), or one slab at a time.

@@ -41,15 +41,29 @@ openvdb::FloatGrid::Ptr toGrid(const VolumeView& v, const ToGridOptions& o) {
     grid->insertMeta("isoforge_inside", openvdb::StringMetadata("above"));
     grid->insertMeta("source_format", openvdb::StringMetadata(v.format));
     const std::int64_t slab = 64, nz = v.dims[2];
-    if (count == 0) return grid;
+    const std::int64_t x0 = std::clamp<std::int64_t>(o.xBegin, 0, v.dims[0]),
+                       x1 = std::clamp<std::int64_t>(o.xEnd, 0, v.dims[0]);
+    if (count == 0 || x1 <= x0) return grid;
+    const bool whole = x0 == 0 && x1 == v.dims[0];
+    std::vector<float> part;  // an x range is not contiguous: copied a run of slices at a time
     if (o.progress) o.progress->begin("converting to a sparse grid");
     for (std::int64_t z0 = 0; z0 < nz; z0 += slab) {
         const std::int64_t z1 = std::min(nz, z0 + slab) - 1;
-        const openvdb::CoordBBox box(openvdb::Coord(0, 0, int(z0)),
-                                     openvdb::Coord(int(v.dims[0] - 1), int(v.dims[1] - 1), int(z1)));
+        const openvdb::CoordBBox box(openvdb::Coord(int(x0), 0, int(z0)),
+                                     openvdb::Coord(int(x1 - 1), int(v.dims[1] - 1), int(z1)));
+        const float* data = v.values + std::size_t(z0 * v.dims[0] * v.dims[1]);
+        if (!whole) {
+            part.resize(std::size_t((x1 - x0) * v.dims[1] * (z1 - z0 + 1)));
+            float* out = part.data();
+            for (std::int64_t k = z0; k <= z1; ++k)
+                for (std::int64_t j = 0; j < v.dims[1]; ++j, out += x1 - x0) {
+                    const float* row = v.values + std::size_t((k * v.dims[1] + j) * v.dims[0] + x0);
+                    std::copy(row, row + (x1 - x0), out);
+                }
+            data = part.data();
+        }
         // A view of the slab in place (x fastest: OpenVDB's LayoutXYZ).
-        openvdb::tools::Dense<const float, openvdb::tools::LayoutXYZ> dense(
-            box, v.values + std::size_t(z0 * v.dims[0] * v.dims[1]));
+        openvdb::tools::Dense<const float, openvdb::tools::LayoutXYZ> dense(box, data);
         openvdb::tools::copyFromDense(dense, *grid, o.tolerance);
         if (o.progress) o.progress->update(std::size_t(z1 + 1), std::size_t(nz));
     }

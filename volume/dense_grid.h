@@ -1,6 +1,7 @@
 #pragma once
 /// @file Dense volumes to and from sparse OpenVDB grids.
 
+#include <cstdint>
 #include <optional>
 #include <utility>
 
@@ -15,6 +16,8 @@ struct ToGridOptions {
     std::optional<float> background;  ///< the value left out of the sparse grid; default: the volume's minimum
     float tolerance = 0.f;            ///< values within this of the background are culled too
     Progress* progress = nullptr;
+    /// Only the voxels with x index in [xBegin, xEnd) (a slab, volume/bricked.h); the rest is background.
+    std::int64_t xBegin = -(std::int64_t{1} << 40), xEnd = std::int64_t{1} << 40;
 };
 
 /// A sparse float grid holding the volume's voxels that differ from the background by more than the
