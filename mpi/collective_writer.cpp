@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <limits>
 #include <span>
 #include <vector>
@@ -23,27 +24,68 @@ std::string lowerExtension(const std::string& path) {
     return e;
 }
 
-/// Writes each rank's `bytes` after those of the ranks before it, from `offset`; returns the
-/// offset after the whole section (the same on every rank). A failed write is noted in `error`.
-MPI_Offset writeSection(MPI_File file, MPI_Offset offset, const std::string& bytes, MPI_Comm comm,
-                        const std::string& path, std::string& error) {
-    std::uint64_t mine = bytes.size(), before = 0, total = 0;
-    int rank = 0;
-    MPI_Comm_rank(comm, &rank);
-    MPI_Exscan(&mine, &before, 1, MPI_UINT64_T, MPI_SUM, comm);
-    if (rank == 0) before = 0;
-    MPI_Allreduce(&mine, &total, 1, MPI_UINT64_T, MPI_SUM, comm);
-    constexpr std::size_t kMaxWrite = std::size_t{1} << 30;  // MPI counts are int
-    for (std::size_t done = 0; done < bytes.size();) {
-        const std::size_t n = std::min(kMaxWrite, bytes.size() - done);
-        MPI_Status status;
-        if (error.empty() &&
-            MPI_File_write_at(file, offset + static_cast<MPI_Offset>(before + done), bytes.data() + done,
-                              static_cast<int>(n), MPI_BYTE, &status) != MPI_SUCCESS)
-            error = path + ": write failed on rank " + std::to_string(rank) + " (disk full?)";
-        done += n;
+/// Writes the file's sections: in each, every rank's bytes follow those of the ranks before it.
+class Sections {
+public:
+    Sections(MPI_File file, MPI_Comm comm, std::string path) : file_(file), comm_(comm), path_(std::move(path)) {
+        MPI_Comm_rank(comm_, &rank_);
     }
-    return offset + static_cast<MPI_Offset>(total);
+    using Emit = std::function<void(const std::string&)>;
+
+    /// `mine`: this rank's bytes in the section; `produce(emit)` emits exactly them, in order.
+    void section(std::uint64_t mine, const std::function<void(const Emit&)>& produce) {
+        std::uint64_t before = 0, total = 0;
+        MPI_Exscan(&mine, &before, 1, MPI_UINT64_T, MPI_SUM, comm_);
+        if (rank_ == 0) before = 0;
+        MPI_Allreduce(&mine, &total, 1, MPI_UINT64_T, MPI_SUM, comm_);
+        std::uint64_t done = 0;
+        try {
+            produce([&](const std::string& bytes) {
+                write(offset_ + static_cast<MPI_Offset>(before + done), bytes);
+                done += bytes.size();
+            });
+        } catch (const std::exception& e) {  // out of memory: the rank still takes part in what follows
+            if (error_.empty()) error_ = path_ + ": rank " + std::to_string(rank_) + ": " + e.what();
+        }
+        if (done != mine && error_.empty())
+            error_ = path_ + ": rank " + std::to_string(rank_) + " wrote " + std::to_string(done) + " bytes of " +
+                     std::to_string(mine) + " (internal error)";
+        offset_ += static_cast<MPI_Offset>(total);
+    }
+    /// A section whose length is known only once formatted (ASCII): formatted whole, then written.
+    void formatted(const std::function<void(std::string&)>& fill) {
+        std::string bytes;
+        try {
+            fill(bytes);
+        } catch (const std::exception& e) {
+            if (error_.empty()) error_ = path_ + ": rank " + std::to_string(rank_) + ": " + e.what();
+            bytes.clear();
+        }
+        section(bytes.size(), [&](const Emit& emit) { emit(bytes); });
+    }
+    const std::string& error() const { return error_; }
+
+private:
+    void write(MPI_Offset at, const std::string& bytes) {
+        constexpr std::size_t kMaxWrite = std::size_t{1} << 30;  // MPI counts are int
+        for (std::size_t done = 0; done < bytes.size() && error_.empty();) {
+            const std::size_t n = std::min(kMaxWrite, bytes.size() - done);
+            MPI_Status status;
+            if (MPI_File_write_at(file_, at + static_cast<MPI_Offset>(done), bytes.data() + done, static_cast<int>(n),
+                                  MPI_BYTE, &status) != MPI_SUCCESS)
+                error_ = path_ + ": write failed on rank " + std::to_string(rank_) + " (disk full?)";
+            done += n;
+        }
+    }
+    MPI_File file_;
+    MPI_Comm comm_;
+    std::string path_, error_;
+    int rank_ = 0;
+    MPI_Offset offset_ = 0;
+};
+
+std::span<const glm::vec3> ownedOf(const std::vector<glm::vec3>& v, std::size_t owned) {
+    return v.empty() ? std::span<const glm::vec3>() : std::span(v).first(owned);
 }
 
 }  // namespace
@@ -58,16 +100,16 @@ std::string writeCollective(const std::string& path, const RankPiece& piece, con
     int rank = 0;
     MPI_Comm_rank(comm, &rank);
     const std::string ext = lowerExtension(path);
-    const mesh::TriMesh& m = piece.mesh;
-    const std::span<const glm::vec3> positions = std::span(m.positions).first(piece.owned);
-    const std::span<const glm::vec3> normals =
-        m.normals.empty() ? std::span<const glm::vec3>() : std::span(m.normals).first(piece.owned);
+    const bool normals = !piece.slabs.empty() && !piece.slabs.front().mesh.normals.empty();
+    int anyNormals = normals, hasNormals = 0;
+    MPI_Allreduce(&anyNormals, &hasNormals, 1, MPI_INT, MPI_LOR, comm);  // a rank without slabs cannot tell
 
     // Colours are kept only if some vertex of the whole mesh is not white.
     int anyColor = 0, anyColorAll = 0;
     if (options.colors)
-        anyColor =
-            std::any_of(m.colors.begin(), m.colors.end(), [](const glm::vec3& c) { return c != glm::vec3(1.f); });
+        for (const SlabPart& s : piece.slabs)
+            anyColor = anyColor || std::any_of(s.mesh.colors.begin(), s.mesh.colors.end(),
+                                               [](const glm::vec3& c) { return c != glm::vec3(1.f); });
     MPI_Allreduce(&anyColor, &anyColorAll, 1, MPI_INT, MPI_LOR, comm);
     const bool colors = options.colors && anyColorAll;
 
@@ -77,64 +119,76 @@ std::string writeCollective(const std::string& path, const RankPiece& piece, con
     MPI_Bcast(&pid, 1, MPI_LONG, 0, comm);
     const std::string temporary =
         (target.parent_path() / ("." + target.filename().string() + ".mpi-" + std::to_string(pid) + ".tmp")).string();
+    if (!canWriteCollective(path) || (ext == ".stl" && piece.totalTriangles > 0xFFFFFFFFull))
+        throw IoError(path + (canWriteCollective(path) ? ": binary STL holds at most 4,294,967,295 triangles"
+                                                       : ": isoforge-mpi writes .ply, .obj, .stl or .pvtp"));
     MPI_File file;
     if (MPI_File_open(comm, temporary.c_str(), MPI_MODE_CREATE | MPI_MODE_WRONLY, MPI_INFO_NULL, &file) != MPI_SUCCESS)
         throw IoError(path + ": cannot create '" + temporary + "'");  // collective: every rank sees it
     MPI_File_set_size(file, 0);
 
-    std::string bytes, error;
-    MPI_Offset offset = 0;
-    auto section = [&](auto&& fill) {
-        bytes.clear();
-        try {
-            fill(bytes);
-        } catch (const std::exception& e) {  // out of memory: the rank still takes part, with nothing
-            if (error.empty()) error = path + ": rank " + std::to_string(rank) + ": " + e.what();
-            bytes.clear();
-        }
-        offset = writeSection(file, offset, bytes, comm, path, error);
+    Sections out(file, comm, path);
+    using Emit = Sections::Emit;
+    const auto header = [&](const std::string& text) {
+        const std::string mine = rank == 0 ? text : std::string();
+        out.section(mine.size(), [&](const Emit& emit) { emit(mine); });
     };
-    {
-        if (ext == ".ply") {
-            section([&](std::string& b) {
-                if (rank == 0)
-                    b = mesh::records::plyHeader(piece.totalVertices, piece.totalTriangles, !normals.empty(), colors,
-                                                 options.ascii);
-            });
-            section([&](std::string& b) {
-                mesh::records::appendPlyVertices(
-                    b, positions, normals, colors ? std::span<const glm::vec3>(m.colors) : std::span<const glm::vec3>(),
-                    options.ascii);
-            });
-            section([&](std::string& b) { mesh::records::appendPlyFaces(b, m.triangles, options.ascii); });
-        } else if (ext == ".obj") {
-            section([&](std::string& b) {
-                if (rank == 0) b = mesh::records::kObjHeader;
-            });
-            section([&](std::string& b) { mesh::records::appendObjPositions(b, positions); });
-            if (!normals.empty()) section([&](std::string& b) { mesh::records::appendObjNormals(b, normals); });
-            section([&](std::string& b) { mesh::records::appendObjFaces(b, m.triangles, !normals.empty()); });
-        } else if (ext == ".stl") {
-            if (piece.totalTriangles > 0xFFFFFFFFull) {  // the same on every rank
-                MPI_File_close(&file);
-                throw IoError(path + ": binary STL holds at most 4,294,967,295 triangles");
+    // Each slab's records formatted and written in turn (binary: the length is known up front).
+    const auto perSlab = [&](std::uint64_t bytes, const std::function<void(const SlabPart&, std::string&)>& format) {
+        out.section(bytes, [&](const Emit& emit) {
+            std::string buf;
+            for (const SlabPart& s : piece.slabs) {
+                buf.clear();
+                format(s, buf);
+                emit(buf);
             }
-            section([&](std::string& b) {
-                if (rank == 0) b = mesh::records::stlHeader(static_cast<std::uint32_t>(piece.totalTriangles));
-            });
-            section([&](std::string& b) {
-                mesh::records::appendStlTriangles(b, m.triangles, [&](std::uint32_t v) -> const glm::vec3& {
-                    return m.positions[v - piece.vertexBase];
-                });
-            });
+        });
+    };
+    const auto formattedPerSlab = [&](const std::function<void(const SlabPart&, std::string&)>& format) {
+        out.formatted([&](std::string& all) {
+            for (const SlabPart& s : piece.slabs) format(s, all);
+        });
+    };
+    const auto plyVertices = [&](const SlabPart& s, std::string& b) {
+        mesh::records::appendPlyVertices(
+            b, ownedOf(s.mesh.positions, s.owned),
+            hasNormals ? ownedOf(s.mesh.normals, s.owned) : std::span<const glm::vec3>(),
+            colors ? std::span<const glm::vec3>(s.mesh.colors) : std::span<const glm::vec3>(), options.ascii);
+    };
+    const auto plyFaces = [&](const SlabPart& s, std::string& b) {
+        mesh::records::appendPlyFaces(b, s.mesh.triangles, options.ascii);
+    };
+    if (ext == ".ply") {
+        header(mesh::records::plyHeader(piece.totalVertices, piece.totalTriangles, hasNormals, colors, options.ascii));
+        if (options.ascii) {
+            formattedPerSlab(plyVertices);
+            formattedPerSlab(plyFaces);
         } else {
-            MPI_File_close(&file);
-            throw IoError(path + ": isoforge-mpi writes .ply, .obj, .stl or .pvtp");  // the same on every rank
+            perSlab(piece.vertices * (12 + 12 * (hasNormals != 0) + 3 * colors), plyVertices);
+            perSlab(piece.triangles * 13, plyFaces);
         }
+    } else if (ext == ".obj") {
+        header(mesh::records::kObjHeader);
+        formattedPerSlab([&](const SlabPart& s, std::string& b) {
+            mesh::records::appendObjPositions(b, ownedOf(s.mesh.positions, s.owned));
+        });
+        if (hasNormals)
+            formattedPerSlab([&](const SlabPart& s, std::string& b) {
+                mesh::records::appendObjNormals(b, ownedOf(s.mesh.normals, s.owned));
+            });
+        formattedPerSlab(
+            [&](const SlabPart& s, std::string& b) { mesh::records::appendObjFaces(b, s.mesh.triangles, hasNormals); });
+    } else {
+        header(mesh::records::stlHeader(static_cast<std::uint32_t>(piece.totalTriangles)));
+        perSlab(piece.triangles * 50, [&](const SlabPart& s, std::string& b) {
+            mesh::records::appendStlTriangles(b, s.mesh.triangles, [&](std::uint32_t v) -> const glm::vec3& {
+                return s.mesh.positions[v - s.vertexBase];
+            });
+        });
     }
     MPI_File_close(&file);
     try {
-        agree(error, 1, comm);
+        agree(out.error(), 1, comm);
     } catch (...) {
         finishCollective(temporary, path, false, comm);
         throw;
@@ -162,8 +216,15 @@ void writePieces(const std::string& pvtpPath, const RankPiece& piece, bool norma
     MPI_Comm_size(comm, &ranks);
     const std::filesystem::path index(pvtpPath);
     auto pieceName = [&](int r) { return index.stem().string() + "_" + std::to_string(r) + ".vtp"; };
-    // This rank's piece: its vertices and ghosts, its triangles numbered from 0.
-    const mesh::TriMesh& m = piece.mesh;
+    // This rank's piece: its vertices and the ghosts of its last slab, its triangles numbered from 0.
+    mesh::TriMesh m;
+    for (std::size_t i = 0; i < piece.slabs.size(); ++i) {
+        const SlabPart& s = piece.slabs[i];
+        const std::size_t keep = i + 1 == piece.slabs.size() ? s.mesh.positions.size() : s.owned;
+        m.positions.insert(m.positions.end(), s.mesh.positions.begin(), s.mesh.positions.begin() + keep);
+        if (normals) m.normals.insert(m.normals.end(), s.mesh.normals.begin(), s.mesh.normals.begin() + keep);
+        for (const glm::uvec3& t : s.mesh.triangles) m.triangles.push_back(t - glm::uvec3(piece.vertexBase));
+    }
     std::string x =
         "<?xml version=\"1.0\"?>\n<VTKFile type=\"PolyData\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
         "  <PolyData>\n    <Piece NumberOfPoints=\"" +
@@ -185,11 +246,7 @@ void writePieces(const std::string& pvtpPath, const RankPiece& piece, bool norma
     x += "      <Points>\n";
     floats(m.positions, nullptr);
     x += "      </Points>\n      <Polys>\n        <DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n";
-    for (const glm::uvec3& t : m.triangles)
-        x.append(buf, std::snprintf(buf, sizeof buf, "%llu %llu %llu\n",
-                                    static_cast<unsigned long long>(t.x - piece.vertexBase),
-                                    static_cast<unsigned long long>(t.y - piece.vertexBase),
-                                    static_cast<unsigned long long>(t.z - piece.vertexBase)));
+    for (const glm::uvec3& t : m.triangles) x.append(buf, std::snprintf(buf, sizeof buf, "%u %u %u\n", t.x, t.y, t.z));
     x += "        </DataArray>\n        <DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">\n";
     for (std::size_t i = 0; i < m.triangles.size(); ++i)
         x.append(buf, std::snprintf(buf, sizeof buf, "%zu\n", 3 * (i + 1)));

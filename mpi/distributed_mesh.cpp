@@ -9,30 +9,29 @@
 namespace isoforge::mpi {
 
 namespace {
+
 using Clock = std::chrono::steady_clock;
 double secondsSince(Clock::time_point t) {
     return std::chrono::duration<double>(Clock::now() - t).count();
 }
-/// Meshes the rank's run of slabs into piece.mesh; returns the number of vertices it owns.
-std::uint64_t meshRun(const implicit::FieldPtr& field, const volume::SlabOptions& options,
-                      const std::vector<std::int64_t>& origins, RankPiece& piece) {
-    mesh::TriMesh& all = piece.mesh;
-    mesh::TriMesh slab;
+
+/// Meshes the rank's run of slabs, numbered from 0 within the rank.
+void meshRun(const implicit::FieldPtr& field, const volume::SlabOptions& options,
+             const std::vector<std::int64_t>& origins, std::size_t count, RankPiece& piece) {
     std::uint64_t local = 0;
-    for (std::size_t s = piece.firstSlab; s < piece.firstSlab + piece.slabs; ++s) {
+    piece.slabs.resize(count);
+    for (std::size_t i = 0; i < count; ++i) {
+        const std::size_t s = piece.firstSlab + i;
         const std::int64_t x0 = origins[s], x1 = x0 + options.slabWidth;
-        const std::size_t owned =
-            volume::meshSlab(field, options, x0, x1, s == 0, s + 1 == origins.size(), local, slab, &piece.stats);
+        SlabPart& part = piece.slabs[i];
+        part.vertexBase = local;
+        part.owned =
+            volume::meshSlab(field, options, x0, x1, s == 0, s + 1 == origins.size(), local, part.mesh, &piece.stats);
         ++piece.stats.slabs;
-        const bool lastOfRun = s + 1 == piece.firstSlab + piece.slabs;
-        const std::size_t keep = lastOfRun ? slab.positions.size() : owned;
-        all.positions.insert(all.positions.end(), slab.positions.begin(), slab.positions.begin() + keep);
-        if (options.normals) all.normals.insert(all.normals.end(), slab.normals.begin(), slab.normals.begin() + keep);
-        all.colors.insert(all.colors.end(), slab.colors.begin(), slab.colors.end());
-        all.triangles.insert(all.triangles.end(), slab.triangles.begin(), slab.triangles.end());
-        local += owned;
+        local += part.owned;
+        piece.triangles += part.mesh.triangles.size();
     }
-    return local;
+    piece.vertices = local;
 }
 
 }  // namespace
@@ -43,27 +42,21 @@ RankPiece meshRankSlabs(const implicit::FieldPtr& field, const volume::SlabOptio
     MPI_Comm_size(comm, &ranks);
     RankPiece piece;
     // Every rank computes the same partition from the same field: nothing to send.
-    const std::vector<std::int64_t> origins = volume::slabOrigins(*field, options.sample, options.slabWidth);
-    const std::vector<std::size_t> begin = volume::partitionSlabs(*field, options.sample, options.slabWidth, ranks);
-    piece.firstSlab = begin[static_cast<std::size_t>(rank)];
-    piece.slabs = begin[static_cast<std::size_t>(rank) + 1] - piece.firstSlab;
-
-    // The run's slabs, numbered from 0 here; the ghosts of the last are the next rank's first vertices.
-    mesh::TriMesh& all = piece.mesh;
-    std::uint64_t local = 0;
     std::string error;
     try {
-        local = meshRun(field, options, origins, piece);
+        const std::vector<std::int64_t> origins = volume::slabOrigins(*field, options.sample, options.slabWidth);
+        const std::vector<std::size_t> begin = volume::partitionSlabs(*field, options.sample, options.slabWidth, ranks);
+        piece.firstSlab = begin[static_cast<std::size_t>(rank)];
+        meshRun(field, options, origins, begin[static_cast<std::size_t>(rank) + 1] - piece.firstSlab, piece);
     } catch (const std::exception& e) {  // bad input, out of memory: the job stops together
         error = e.what();
-        all = {};
+        piece.slabs.clear();
     }
     agree(error, 1, comm);
-    piece.owned = static_cast<std::size_t>(local);
 
     // The only exchange: where each rank's vertices and triangles start, and the totals.
     const auto t0 = Clock::now();
-    std::uint64_t counts[2] = {local, all.triangles.size()}, before[2] = {0, 0}, totals[2] = {0, 0};
+    std::uint64_t counts[2] = {piece.vertices, piece.triangles}, before[2] = {0, 0}, totals[2] = {0, 0};
     MPI_Exscan(counts, before, 2, MPI_UINT64_T, MPI_SUM, comm);
     if (rank == 0) before[0] = before[1] = 0;  // MPI_Exscan leaves rank 0's result undefined
     MPI_Allreduce(counts, totals, 2, MPI_UINT64_T, MPI_SUM, comm);
@@ -76,8 +69,12 @@ RankPiece meshRankSlabs(const implicit::FieldPtr& field, const volume::SlabOptio
     if (totals[0] > std::numeric_limits<std::uint32_t>::max())
         throw ResourceError("the surface has " + std::to_string(totals[0]) +
                             " vertices, more than 32-bit indices can address");
+    // The ghosts of the rank's last slab are the next rank's first vertices: the same numbers on both sides.
     const auto base = static_cast<std::uint32_t>(piece.vertexBase);
-    for (glm::uvec3& t : all.triangles) t += glm::uvec3(base);
+    for (SlabPart& part : piece.slabs) {
+        part.vertexBase += piece.vertexBase;
+        for (glm::uvec3& t : part.mesh.triangles) t += glm::uvec3(base);
+    }
     return piece;
 }
 

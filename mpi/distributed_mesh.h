@@ -7,6 +7,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include <mpi.h>
 
@@ -16,15 +17,22 @@
 
 namespace isoforge::mpi {
 
-/// A rank's part of the whole mesh: its vertices (the whole mesh's vertexBase ..), then the ghost
-/// vertices of the next rank's first slab that its triangles use; triangles numbered as in the
-/// whole mesh. Colours for the owned vertices, if the job has them.
-struct RankPiece {
+/// One slab of a rank's run, kept as the slab made it (no copy into one big mesh): its vertices,
+/// then the ghosts its triangles use (the next slab's first ones); triangles numbered as in the whole
+/// mesh once the rank is numbered. Colours for the owned vertices, if the job has them.
+struct SlabPart {
     mesh::TriMesh mesh;
     std::size_t owned = 0;
+    std::uint64_t vertexBase = 0;  ///< the whole mesh's number of the slab's first vertex
+};
+
+/// A rank's part of the whole mesh.
+struct RankPiece {
+    std::vector<SlabPart> slabs;
+    std::uint64_t vertices = 0, triangles = 0;       ///< the rank's own
     std::uint64_t vertexBase = 0, triangleBase = 0;  ///< where the rank's part starts in the whole mesh
     std::uint64_t totalVertices = 0, totalTriangles = 0;
-    std::size_t firstSlab = 0, slabs = 0;  ///< the rank's run of slabs
+    std::size_t firstSlab = 0;  ///< the rank's run of slabs starts here
     volume::SlabStats stats;
     double secondsMpi = 0;             ///< time in MPI calls (the scans)
     std::uint64_t bytesExchanged = 0;  ///< bytes this rank sent in them

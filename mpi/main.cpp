@@ -97,7 +97,8 @@ int runMesh(const Args& a, MPI_Comm comm) {
     const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
     if (rank == 0 && !a.quiet) {
         std::printf("meshed %s on %d ranks (%d threads each): %s vertices, %s triangles in %.3f s -> %s\n",
-                    field->describe().c_str(), ranks, tbb::info::default_concurrency(),
+                    field->describe().c_str(), ranks,
+                    static_cast<int>(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)),
                     withCommas(piece.totalVertices).c_str(), withCommas(piece.totalTriangles).c_str(), seconds,
                     a.output.c_str());
         std::printf(
