@@ -259,9 +259,7 @@ void addRenderCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                 }
                 if (method == "auto") method = "march";
                 if (method == "mesh") {
-                    const bool below = volume::insideIsBelow(*grid, a->inside == "below"   ? volume::InsideSide::Below
-                                                                    : a->inside == "above" ? volume::InsideSide::Above
-                                                                                           : volume::InsideSide::Auto);
+                    const bool below = volume::insideIsBelow(*grid, insideSideOf(a->inside));
                     for (const auto& l : layers) {
                         volume::MeshingOptions mo;
                         mo.isovalue = l.iso;
@@ -326,9 +324,7 @@ void addRenderCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                 for (std::size_t i = 0; i < meshes.size(); ++i) objs.push_back({&meshes[i], materials[i], true});
                 frame = render::renderMeshes(objs, look, opt, &st);
             } else if (grid) {
-                const bool below = volume::insideIsBelow(*grid, a->inside == "below"   ? volume::InsideSide::Below
-                                                                : a->inside == "above" ? volume::InsideSide::Above
-                                                                                       : volume::InsideSide::Auto);
+                const bool below = volume::insideIsBelow(*grid, insideSideOf(a->inside));
                 frame = render::marchGrid(*grid, layers, below, look, opt, &st);
             } else {
                 frame = render::marchField(field, bounds, look, opt, &st);

@@ -140,9 +140,7 @@ namespace {
 /// `mesh VOLUME --memory`: a dense volume converted and meshed a slab at a time (the volume itself is
 /// held), or a .vdb grid meshed a slab at a time (the grid is held, the mesh is not).
 int meshVolumeFileBySlabs(const std::string& input, const std::string& gridName, const VolumeInput& vin, int smooth,
-                          std::uint64_t memoryLimit, float iso, const std::string& inside, bool normals,
-                          bool indexSpace, bool ascii, bool stats, bool sharp, bool maxError, const std::string& output,
-                          const GlobalOptions& g) {
+                          bool sharp, bool maxError, SlabMeshJob job, const GlobalOptions& g) {
     if (input.empty()) throw CLI::ValidationError("input", "give a volume file, a .vm model, --shape or --expr");
     if (sharp || maxError)
         throw CLI::ValidationError(sharp ? "--sharp" : "--max-error",
@@ -150,20 +148,9 @@ int meshVolumeFileBySlabs(const std::string& input, const std::string& gridName,
     if (smooth > 0) throw CLI::ValidationError("--smooth", "smoothing looks across slabs: not with --memory");
     if (vin.tolerance > 0)
         throw CLI::ValidationError("--tolerance", "a tolerance prunes across slabs: not with --memory");
-    if (!mesh::MeshStreamWriter::canStream(output))
+    if (!mesh::MeshStreamWriter::canStream(job.output))
         throw CLI::ValidationError("--memory", "a mesh written in slabs is .ply, .obj or .stl");
-    SlabMeshJob job;
     job.what = input;
-    job.isovalue = iso;
-    job.inside = inside == "below"   ? volume::InsideSide::Below
-                 : inside == "above" ? volume::InsideSide::Above
-                                     : volume::InsideSide::Auto;
-    job.normals = normals;
-    job.indexSpace = indexSpace;
-    job.ascii = ascii;
-    job.stats = stats;
-    job.output = output;
-    job.memoryLimit = memoryLimit;
     volume::DenseVolume dense;
     if (isDenseVolumeFile(input)) {
         dense = loadVolume(input, vin, g);
@@ -315,6 +302,20 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                     throw CLI::ValidationError("--memory", e.what());
                 }
             }
+            const volume::InsideSide inside = insideSideOf(a->inside);
+            // What meshing in slabs needs of the command line (--memory).
+            const auto slabJob = [&] {
+                SlabMeshJob job;
+                job.isovalue = a->iso;
+                job.inside = inside;
+                job.normals = a->normals;
+                job.indexSpace = a->indexSpace;
+                job.ascii = a->ascii;
+                job.stats = a->stats;
+                job.output = a->output;
+                job.memoryLimit = memoryLimit;
+                return job;
+            };
             implicit::FieldPtr field;
             openvdb::FloatGrid::Ptr grid;
             if (namesField(a->input, a->field)) {
@@ -341,27 +342,16 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                         throw CLI::ValidationError("--memory", "a mesh written in slabs is .ply, .obj or .stl");
                     if (!g.quiet && isOpenScadModel(a->input) && !a->noSharp)
                         std::printf("meshing in slabs: plain marching cubes (feature vertices need the whole mesh)\n");
-                    SlabMeshJob job;
+                    SlabMeshJob job = slabJob();
                     job.field = field;
                     job.what = field->describe();
                     job.sample = so;
-                    job.isovalue = a->iso;
-                    job.inside = a->inside == "below"   ? volume::InsideSide::Below
-                                 : a->inside == "above" ? volume::InsideSide::Above
-                                                        : volume::InsideSide::Auto;
-                    job.normals = a->normals;
-                    job.indexSpace = a->indexSpace;
-                    job.ascii = a->ascii;
-                    job.stats = a->stats;
-                    job.output = a->output;
-                    job.memoryLimit = memoryLimit;
                     return meshBySlabsToFile(job, g);
                 }
                 grid = sampleField(field, so, g, g.quiet ? nullptr : &progress, a->stats);
             } else if (memoryLimit > 0) {
-                return meshVolumeFileBySlabs(a->input, a->grid, a->volume, a->smooth, memoryLimit, a->iso, a->inside,
-                                             a->normals, a->indexSpace, a->ascii, a->stats, a->sharp, a->maxError > 0,
-                                             a->output, g);
+                return meshVolumeFileBySlabs(a->input, a->grid, a->volume, a->smooth, a->sharp, a->maxError > 0,
+                                             slabJob(), g);
             } else {
                 grid = loadOrSample(a->input, a->grid, a->field, g, g.quiet ? nullptr : &progress, a->stats, &field,
                                     &a->volume, a->smooth);
@@ -372,9 +362,7 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                 throw CLI::ValidationError("--max-error", "--max-error is in world units: not with --index-space");
             volume::SurfaceOptions opt;
             opt.isovalue = a->iso;
-            opt.inside = a->inside == "below"   ? volume::InsideSide::Below
-                         : a->inside == "above" ? volume::InsideSide::Above
-                                                : volume::InsideSide::Auto;
+            opt.inside = inside;
             opt.normals = a->normals;
             opt.indexSpace = a->indexSpace;
             // OpenSCAD's solids are polyhedra, every edge sharp: feature vertices unless asked not to.

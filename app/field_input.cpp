@@ -100,6 +100,11 @@ implicit::FieldPtr makeField(const std::string& file, const FieldInput& in, impl
     return f;
 }
 
+volume::InsideSide insideSideOf(const std::string& word) {
+    return word == "below" ? volume::InsideSide::Below
+                           : (word == "above" ? volume::InsideSide::Above : volume::InsideSide::Auto);
+}
+
 float voxelSize(const implicit::Field& field, const implicit::Box3& clip, const FieldInput& in) {
     if (in.voxel > 0) return in.voxel;
     return volume::voxelSizeForResolution(volume::sampleDomain(field, clip), in.resolution > 0 ? in.resolution : 256);

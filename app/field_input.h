@@ -9,6 +9,7 @@
 
 #include "csg/scene.h"
 #include "implicit/field.h"
+#include "volume/marching_cubes.h"
 
 namespace isoforge::app {
 
@@ -40,6 +41,9 @@ bool namesField(const std::string& file, const FieldInput& in);
 /// `printWarnings`: the scene's warnings on stderr (off on all but one rank of a distributed job).
 implicit::FieldPtr makeField(const std::string& file, const FieldInput& in, implicit::Box3& clip,
                              csg::Scene* sceneOut = nullptr, bool printWarnings = true);
+
+/// --inside's word (auto, below, above) as the mesher's enum.
+volume::InsideSide insideSideOf(const std::string& word);
 
 /// Voxel size from --voxel or --resolution (default 256 along the longest side of the domain).
 float voxelSize(const implicit::Field& field, const implicit::Box3& clip, const FieldInput& in);

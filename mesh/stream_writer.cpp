@@ -6,16 +6,13 @@
 
 #include "core/error.h"
 #include "mesh/records.h"
+#include "mesh/text_cursor.h"
 
 namespace isoforge::mesh {
 
 namespace {
 
-std::string lowerExtension(const std::filesystem::path& p) {
-    std::string e = p.extension().string();
-    for (char& c : e) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    return e;
-}
+using detail::lowerExtension;
 
 constexpr std::size_t kChunk = 1 << 16;
 

@@ -12,6 +12,7 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "mesh/records.h"
+#include "mesh/stream_writer.h"
 #include "mpi/agree.h"
 
 namespace isoforge::mpi {
@@ -91,8 +92,7 @@ std::span<const glm::vec3> ownedOf(const std::vector<glm::vec3>& v, std::size_t 
 }  // namespace
 
 bool canWriteCollective(const std::string& path) {
-    const std::string e = lowerExtension(path);
-    return e == ".ply" || e == ".obj" || e == ".stl";
+    return mesh::MeshStreamWriter::canStream(path);  // the same formats: records written in order
 }
 
 std::string writeCollective(const std::string& path, const RankPiece& piece, const CollectiveWriteOptions& options,

@@ -58,9 +58,7 @@ int runMesh(const Args& a, MPI_Comm comm) {
         so.sample.halfWidth = a.field.halfWidth;
         so.sample.clip = clip;
         so.isovalue = a.iso;
-        so.inside = a.inside == "below"   ? volume::InsideSide::Below
-                    : a.inside == "above" ? volume::InsideSide::Above
-                                          : volume::InsideSide::Auto;
+        so.inside = app::insideSideOf(a.inside);
         so.normals = a.normals;
         so.indexSpace = a.indexSpace;
         so.colors = !a.indexSpace && !pvtp;
