@@ -16,8 +16,14 @@ double secondsSince(Clock::time_point t) {
 }
 
 /// Meshes the rank's run of slabs, numbered from 0 within the rank.
-void meshRun(const implicit::FieldPtr& field, const volume::SlabOptions& options,
-             const std::vector<std::int64_t>& origins, std::size_t count, RankPiece& piece) {
+void meshRun(const SlabSource& source, const volume::SlabOptions& options, const std::vector<std::int64_t>& origins,
+             std::size_t count, RankPiece& piece) {
+    const volume::VolumeView view = source.volume
+                                        ? volume::VolumeView{source.volume->values.data(), source.volume->dims,
+                                                             source.volume->indexToWorld, source.volume->format}
+                                        : volume::VolumeView{};
+    volume::ToGridOptions grid;
+    if (source.volume) grid.background = source.volume->range().first;  // the whole volume's, on every rank
     std::uint64_t local = 0;
     piece.slabs.resize(count);
     for (std::size_t i = 0; i < count; ++i) {
@@ -25,8 +31,11 @@ void meshRun(const implicit::FieldPtr& field, const volume::SlabOptions& options
         const std::int64_t x0 = origins[s], x1 = x0 + options.slabWidth;
         SlabPart& part = piece.slabs[i];
         part.vertexBase = local;
+        const bool first = s == 0, last = s + 1 == origins.size();
         part.owned =
-            volume::meshSlab(field, options, x0, x1, s == 0, s + 1 == origins.size(), local, part.mesh, &piece.stats);
+            source.volume
+                ? volume::meshVolumeSlab(view, grid, options, x0, x1, first, last, local, part.mesh, &piece.stats)
+                : volume::meshSlab(source.field, options, x0, x1, first, last, local, part.mesh, &piece.stats);
         ++piece.stats.slabs;
         local += part.owned;
         piece.triangles += part.mesh.triangles.size();
@@ -36,7 +45,7 @@ void meshRun(const implicit::FieldPtr& field, const volume::SlabOptions& options
 
 }  // namespace
 
-RankPiece meshRankSlabs(const implicit::FieldPtr& field, const volume::SlabOptions& options, MPI_Comm comm) {
+RankPiece meshRankSlabs(const SlabSource& source, const volume::SlabOptions& options, MPI_Comm comm) {
     int rank = 0, ranks = 1;
     MPI_Comm_rank(comm, &rank);
     MPI_Comm_size(comm, &ranks);
@@ -44,10 +53,19 @@ RankPiece meshRankSlabs(const implicit::FieldPtr& field, const volume::SlabOptio
     // Every rank computes the same partition from the same field: nothing to send.
     std::string error;
     try {
-        const std::vector<std::int64_t> origins = volume::slabOrigins(*field, options.sample, options.slabWidth);
-        const std::vector<std::size_t> begin = volume::partitionSlabs(*field, options.sample, options.slabWidth, ranks);
+        std::vector<std::int64_t> origins;
+        std::vector<std::size_t> begin;
+        if (source.volume) {
+            origins = volume::volumeSlabOrigins(
+                volume::VolumeView{nullptr, source.volume->dims, source.volume->indexToWorld, source.volume->format},
+                options.slabWidth);
+            for (int r = 0; r <= ranks; ++r) begin.push_back(origins.size() * static_cast<std::size_t>(r) / ranks);
+        } else {
+            origins = volume::slabOrigins(*source.field, options.sample, options.slabWidth);
+            begin = volume::partitionSlabs(*source.field, options.sample, options.slabWidth, ranks);
+        }
         piece.firstSlab = begin[static_cast<std::size_t>(rank)];
-        meshRun(field, options, origins, begin[static_cast<std::size_t>(rank) + 1] - piece.firstSlab, piece);
+        meshRun(source, options, origins, begin[static_cast<std::size_t>(rank) + 1] - piece.firstSlab, piece);
     } catch (const std::exception& e) {  // bad input, out of memory: the job stops together
         error = e.what();
         piece.slabs.clear();

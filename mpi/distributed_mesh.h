@@ -14,6 +14,7 @@
 #include "implicit/field.h"
 #include "mesh/trimesh.h"
 #include "volume/bricked.h"
+#include "volume/dense_volume.h"
 
 namespace isoforge::mpi {
 
@@ -38,7 +39,14 @@ struct RankPiece {
     std::uint64_t bytesExchanged = 0;  ///< bytes this rank sent in them
 };
 
-/// Meshes this rank's slabs and numbers them in the whole mesh (collective over `comm`).
-RankPiece meshRankSlabs(const implicit::FieldPtr& field, const volume::SlabOptions& options, MPI_Comm comm);
+/// What the ranks mesh: a field (sampled a slab at a time) or a dense volume every rank holds.
+struct SlabSource {
+    implicit::FieldPtr field;
+    const volume::DenseVolume* volume = nullptr;
+};
+
+/// Meshes this rank's slabs and numbers them in the whole mesh (collective over `comm`). A field's
+/// slabs are split by the surface they may hold (volume::partitionSlabs), a volume's evenly.
+RankPiece meshRankSlabs(const SlabSource& source, const volume::SlabOptions& options, MPI_Comm comm);
 
 }  // namespace isoforge::mpi

@@ -13,6 +13,7 @@
 #include "mpi/agree.h"
 #include "mpi/collective_writer.h"
 #include "mpi/distributed_mesh.h"
+#include "volume/dense_volume.h"
 #include "volume/machine_memory.h"
 #include "volume/vdb_io.h"
 
@@ -42,8 +43,10 @@ int runMesh(const Args& a, MPI_Comm comm) {
     const auto t0 = Clock::now();
     const bool pvtp = std::filesystem::path(a.output).extension() == ".pvtp";
 
-    // Stage 1: every rank reads the input itself (the same field on each).
-    implicit::FieldPtr field;
+    // Stage 1: every rank reads the input itself (the same field, or the same volume, on each).
+    mpi::SlabSource source;
+    volume::DenseVolume dense;
+    std::string what;
     volume::SlabOptions so;
     std::string error;
     int status = 1;
@@ -52,16 +55,29 @@ int runMesh(const Args& a, MPI_Comm comm) {
             status = 2;
             throw std::invalid_argument("-o: " + a.output + ": expected a .ply, .obj, .stl or .pvtp file name");
         }
-        implicit::Box3 clip;
-        field = app::makeField(a.input, a.field, clip, nullptr, rank == 0);
-        so.sample.voxelSize = app::voxelSize(*field, clip, a.field);
-        so.sample.halfWidth = a.field.halfWidth;
-        so.sample.clip = clip;
+        const std::string ext = std::filesystem::path(a.input).extension().string();
+        if (app::namesField(a.input, a.field)) {
+            implicit::Box3 clip;
+            source.field = app::makeField(a.input, a.field, clip, nullptr, rank == 0);
+            what = source.field->describe();
+            so.sample.voxelSize = app::voxelSize(*source.field, clip, a.field);
+            so.sample.halfWidth = a.field.halfWidth;
+            so.sample.clip = clip;
+        } else if (!a.input.empty() && volume::isVolumePath(a.input) && ext != ".vdb" && ext != ".raw") {
+            dense = volume::readVolume(a.input);  // every rank reads it whole; each meshes its own slabs
+            source.volume = &dense;
+            what = a.input;
+        } else {
+            status = 2;
+            throw std::invalid_argument(
+                "input: give a scene (.isf .csg .scad), a .vm model, --shape, --expr, or a "
+                "volume file (NIfTI, NRRD, MetaImage, a DICOM directory)");
+        }
         so.isovalue = a.iso;
         so.inside = app::insideSideOf(a.inside);
         so.normals = a.normals;
         so.indexSpace = a.indexSpace;
-        so.colors = !a.indexSpace && !pvtp;
+        so.colors = source.field && !a.indexSpace && !pvtp;
     } catch (const CLI::ValidationError& e) {
         error = e.what();
         status = 2;
@@ -71,7 +87,7 @@ int runMesh(const Args& a, MPI_Comm comm) {
     mpi::agree(error, status, comm);
 
     // Stage 2: this rank's slabs (collective at its end).
-    const mpi::RankPiece piece = mpi::meshRankSlabs(field, so, comm);
+    const mpi::RankPiece piece = mpi::meshRankSlabs(source, so, comm);
     const double meshSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
 
     // Stage 3: one file, or one piece per rank and an index.
@@ -95,7 +111,7 @@ int runMesh(const Args& a, MPI_Comm comm) {
     const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
     if (rank == 0 && !a.quiet) {
         std::printf("meshed %s on %d ranks (%d threads each): %s vertices, %s triangles in %.3f s -> %s\n",
-                    field->describe().c_str(), ranks,
+                    what.c_str(), ranks,
                     static_cast<int>(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)),
                     withCommas(piece.totalVertices).c_str(), withCommas(piece.totalTriangles).c_str(), seconds,
                     a.output.c_str());
@@ -126,8 +142,10 @@ int main(int argc, char** argv) {
     app.add_option("--threads", a.threads, "Worker threads per rank (default: all cores)")->check(CLI::PositiveNumber);
     app.footer("Exit status: 0 success, 1 bad input or a failed rank (message on stderr), 2 usage error.");
     auto* mesh = app.add_subcommand("mesh", "Sample a field in slabs spread over the ranks and mesh it");
-    mesh->add_option("input", a.input,
-                     "Scene (.isf, OpenSCAD .csg or .scad) or implicit model (.vm); or --shape / --expr");
+    mesh->add_option(
+        "input", a.input,
+        "Scene (.isf, OpenSCAD .csg or .scad), implicit model (.vm), or volume (.nii/.nii.gz, .nrrd/.nhdr, "
+        ".mha/.mhd, a DICOM directory: every rank reads it); or --shape / --expr");
     app::addFieldOptions(mesh, a.field, true);
     mesh->add_option("-o,--output", a.output,
                      "One mesh file (.ply, .obj, .stl), the same bytes as isoforge mesh's; or .pvtp: one .vtp piece "

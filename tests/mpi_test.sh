@@ -40,6 +40,9 @@ check "apart (obj, normals)" obj "$tmp/apart.isf" --voxel 0.01 --normals
 check "colours (ply)" ply "$tmp/col.csg" --no-sharp --resolution "$res"
 check "torus (stl)" stl --shape "torus(R=1, r=0.3)" --resolution "$res"
 check "quartic (ascii ply)" ply --expr "x^4+y^4+z^4-1" --box -2,-2,-2,2,2,2 --resolution "$res" --ascii
+# A real CT series (512 x 512 x 48, four slabs): every rank reads it, each meshes its slabs.
+ct="$(dirname "$0")/../../shared/data/volumes/ct-abdomen-dicom/series"
+[ -d "$ct" ] && check "CT series (ply, normals)" ply "$ct" --iso 300 --normals
 if [ "$full" = --full ]; then
     check "showcase (ply)" ply "$(dirname "$0")/../examples/showcase.isf" --resolution 1200
     check "sphere (ply, normals)" ply --shape "sphere(r=1)" --voxel 0.001 --normals

@@ -150,15 +150,11 @@ void meshBySlabs(const implicit::FieldPtr& field, const SlabOptions& options,
                      options, sink, stats ? *stats : local);
 }
 
-void meshVolumeBySlabs(const VolumeView& volume, const ToGridOptions& grid, const SlabOptions& options,
-                       const std::function<void(const SlabPiece&)>& sink, SlabStats* stats) {
-    if (options.slabWidth <= 0 || options.slabWidth % kNode)
-        throw std::invalid_argument("the slab width is a positive multiple of 128 voxels");
+namespace {
+
+SlabGrid volumeSlabs(const VolumeView& volume, const ToGridOptions& grid) {
     if (!grid.background) throw std::invalid_argument("a volume's slabs need the whole volume's background");
-    std::vector<std::int64_t> origins;
-    for (std::int64_t x = 0; x < std::max<std::int64_t>(volume.dims[0], 1); x += options.slabWidth)
-        origins.push_back(x);
-    const SlabGrid make = [&](std::int64_t xBegin, std::int64_t xEnd, SlabStats& st) {
+    return [&volume, &grid](std::int64_t xBegin, std::int64_t xEnd, SlabStats& st) {
         ToGridOptions o = grid;
         o.xBegin = xBegin;
         o.xEnd = xEnd;
@@ -167,8 +163,31 @@ void meshVolumeBySlabs(const VolumeView& volume, const ToGridOptions& grid, cons
         st.leaves += g->tree().leafCount();
         return g;
     };
+}
+
+}  // namespace
+
+std::vector<std::int64_t> volumeSlabOrigins(const VolumeView& volume, int slabWidth) {
+    if (slabWidth <= 0 || slabWidth % kNode)
+        throw std::invalid_argument("the slab width is a positive multiple of 128 voxels");
+    std::vector<std::int64_t> origins;
+    for (std::int64_t x = 0; x < std::max<std::int64_t>(volume.dims[0], 1); x += slabWidth) origins.push_back(x);
+    return origins;
+}
+
+std::size_t meshVolumeSlab(const VolumeView& volume, const ToGridOptions& grid, const SlabOptions& options,
+                           std::int64_t x0, std::int64_t x1, bool first, bool last, std::uint64_t vertexBase,
+                           mesh::TriMesh& out, SlabStats* stats) {
     SlabStats local;
-    meshSlabsInOrder(origins, make, nullptr, options, sink, stats ? *stats : local);
+    return meshGridSlab(volumeSlabs(volume, grid), nullptr, options, x0, x1, first, last, vertexBase, out,
+                        stats ? *stats : local);
+}
+
+void meshVolumeBySlabs(const VolumeView& volume, const ToGridOptions& grid, const SlabOptions& options,
+                       const std::function<void(const SlabPiece&)>& sink, SlabStats* stats) {
+    const std::vector<std::int64_t> origins = volumeSlabOrigins(volume, options.slabWidth);
+    SlabStats local;
+    meshSlabsInOrder(origins, volumeSlabs(volume, grid), nullptr, options, sink, stats ? *stats : local);
 }
 
 void meshGridBySlabs(const openvdb::FloatGrid& grid, const SlabOptions& options,

@@ -73,6 +73,13 @@ void meshBySlabs(const implicit::FieldPtr& field, const SlabOptions& options,
 void meshVolumeBySlabs(const VolumeView& volume, const ToGridOptions& grid, const SlabOptions& options,
                        const std::function<void(const SlabPiece&)>& sink, SlabStats* stats = nullptr);
 
+/// The slabs of a volume: x origins 0, slabWidth, ... below its width.
+std::vector<std::int64_t> volumeSlabOrigins(const VolumeView& volume, int slabWidth);
+/// One slab of a volume as meshVolumeBySlabs makes it (see meshSlab).
+std::size_t meshVolumeSlab(const VolumeView& volume, const ToGridOptions& grid, const SlabOptions& options,
+                           std::int64_t x0, std::int64_t x1, bool first, bool last, std::uint64_t vertexBase,
+                           mesh::TriMesh& out, SlabStats* stats = nullptr);
+
 /// The same for a grid already in memory (a .vdb file): only the mesh is held a slab at a time.
 void meshGridBySlabs(const openvdb::FloatGrid& grid, const SlabOptions& options,
                      const std::function<void(const SlabPiece&)>& sink, SlabStats* stats = nullptr);
