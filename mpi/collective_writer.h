@@ -4,7 +4,7 @@
 /// (mesh/records.h); an exclusive scan of their lengths gives each its offset in every section of
 /// the file (header, vertices, normals, faces), and all write at once. The file is written under a
 /// temporary name beside the target and renamed by rank 0 once every rank has written, so that a
-/// failed job leaves no partial output. Also: one piece per rank and a ParaView index (.pvtp).
+/// failed job leaves no partial output.
 
 #include <string>
 
@@ -28,10 +28,6 @@ std::string writeCollective(const std::string& path, const RankPiece& piece, con
 /// Rank 0 renames the temporary file onto the target (after every rank reported success), or
 /// removes it; collective.
 void finishCollective(const std::string& temporary, const std::string& path, bool success, MPI_Comm comm);
-
-/// Writes this rank's piece as PATH_STEM_RANK.vtp (VTK XML PolyData, its own vertices and the ghosts
-/// its triangles use) and rank 0 the .pvtp index naming every piece (collective).
-void writePieces(const std::string& pvtpPath, const RankPiece& piece, bool normals, MPI_Comm comm);
 
 /// True for the formats writeCollective writes (.ply .obj .stl).
 bool canWriteCollective(const std::string& path);

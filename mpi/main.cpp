@@ -13,6 +13,7 @@
 #include "mpi/agree.h"
 #include "mpi/collective_writer.h"
 #include "mpi/distributed_mesh.h"
+#include "mpi/pvtp_writer.h"
 #include "volume/dense_volume.h"
 #include "volume/machine_memory.h"
 #include "volume/vdb_io.h"
