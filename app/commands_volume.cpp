@@ -280,9 +280,10 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
     cmd->add_flag("--ascii", a->ascii, "ASCII PLY instead of binary");
     cmd->add_flag("--stats", a->stats, "Print timings and a topology check of the result");
     cmd->add_option("--memory", a->memory,
-                    "Fields: stay under this much memory (e.g. 4G, 512M) by meshing in slabs of 128 voxels, each "
-                    "sampled, meshed and written before the next; the same file as without it. Chosen by itself when "
-                    "the job would not fit in half of this machine's memory. .ply, .obj or .stl output");
+                    "Stay under this much memory (e.g. 4G, 512M) by meshing in slabs of 128 voxels, each sampled "
+                    "(or converted) and meshed, and written before the next; the same file as without it. Chosen by "
+                    "itself when a field's grid would not fit in half of this machine's memory. Volume files are "
+                    "read whole. .ply, .obj or .stl output (docs/scaling.md)");
     cmd->callback([&c, &g, a] {
         c.run = [&g, a] {
             if (!mesh::isMeshPath(a->output))
