@@ -4,6 +4,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <vector>
@@ -128,34 +129,45 @@ int floorDiv(int a, int b) {
 
 }  // namespace
 
-std::pair<std::int64_t, std::int64_t> sampleIndexRangeX(const implicit::Field& field, const SampleOptions& o) {
+namespace {
+
+/// indexRange() of the domain sample() would take for `field` under `o`; none when it is empty or unbounded.
+std::optional<std::pair<glm::dvec3, glm::dvec3>> indexRangeOf(const implicit::Field& field, const SampleOptions& o) {
     const Box3 domain = sampleDomain(field, o.clip);
-    if (!domain.isBounded() || domain.isEmpty() || !(o.voxelSize > 0)) return {0, -1};
-    const auto [lo, hi] = indexRange(domain, o.voxelSize, field.isDistance() ? o.halfWidth * o.voxelSize : 0.f);
+    if (!domain.isBounded() || domain.isEmpty() || !(o.voxelSize > 0)) return std::nullopt;
+    return indexRange(domain, o.voxelSize, field.isDistance() ? o.halfWidth * o.voxelSize : 0.f);
+}
+
+}  // namespace
+
+std::pair<std::int64_t, std::int64_t> sampleIndexRangeX(const implicit::Field& field, const SampleOptions& o) {
+    const auto range = indexRangeOf(field, o);
+    if (!range) return {0, -1};
+    const auto [lo, hi] = *range;
     return {static_cast<std::int64_t>(lo.x), static_cast<std::int64_t>(hi.x)};
 }
 
 double estimateSampleBytes(const implicit::Field& field, const SampleOptions& o) {
-    const Box3 domain = sampleDomain(field, o.clip);
-    if (!domain.isBounded() || domain.isEmpty() || !(o.voxelSize > 0)) return 0;
-    const auto [lo, hi] = indexRange(domain, o.voxelSize, field.isDistance() ? o.halfWidth * o.voxelSize : 0.f);
+    const auto range = indexRangeOf(field, o);
+    if (!range) return 0;
+    const auto [lo, hi] = *range;
     return gridBytesEstimate(hi - lo + 1.0, field.isDistance(), o.halfWidth);
 }
 
 double estimateSurfaceVoxels(const implicit::Field& field, const SampleOptions& o) {
-    const Box3 domain = sampleDomain(field, o.clip);
-    if (!domain.isBounded() || domain.isEmpty() || !(o.voxelSize > 0)) return 0;
-    const auto [lo, hi] = indexRange(domain, o.voxelSize, field.isDistance() ? o.halfWidth * o.voxelSize : 0.f);
+    const auto range = indexRangeOf(field, o);
+    if (!range) return 0;
+    const auto [lo, hi] = *range;
     return boxArea(hi - lo + 1.0);
 }
 
 std::vector<std::pair<std::int64_t, std::uint64_t>> surfaceRegionsByColumn(const implicit::Field& field,
                                                                            const SampleOptions& o) {
-    const Box3 domain = sampleDomain(field, o.clip);
-    if (!domain.isBounded() || domain.isEmpty() || !(o.voxelSize > 0)) return {};
+    const auto range = indexRangeOf(field, o);
+    if (!range) return {};
+    const auto [lo, hi] = *range;
     const bool distance = field.isDistance();
     const float voxel = o.voxelSize, band = distance ? o.halfWidth * voxel : 0.f;
-    const auto [lo, hi] = indexRange(domain, voxel, band);
     const auto top = [](double v) { return static_cast<std::int64_t>(std::floor(v / kTop)); };
     const std::int64_t x0 = top(lo.x), x1 = top(hi.x), y0 = top(lo.y), y1 = top(hi.y), z0 = top(lo.z), z1 = top(hi.z);
     std::vector<std::pair<std::int64_t, std::uint64_t>> columns(static_cast<std::size_t>(x1 - x0 + 1));
