@@ -31,13 +31,7 @@
 namespace isoforge::app {
 
 std::string withCommas(unsigned long long n) {
-    const std::string digits = std::to_string(n);
-    std::string s;
-    for (std::size_t i = 0; i < digits.size(); ++i) {
-        if (i > 0 && (digits.size() - i) % 3 == 0) s.push_back(',');
-        s.push_back(digits[i]);
-    }
-    return s;
+    return countText(n);
 }
 
 namespace {

@@ -15,6 +15,17 @@ inline std::string numberText(double v) {
     return std::string(buf, end);
 }
 
+/// "1,234,567": counts in summaries.
+inline std::string countText(unsigned long long n) {
+    const std::string digits = std::to_string(n);
+    std::string s;
+    for (std::size_t i = 0; i < digits.size(); ++i) {
+        if (i > 0 && (digits.size() - i) % 3 == 0) s.push_back(',');
+        s.push_back(digits[i]);
+    }
+    return s;
+}
+
 /// A size in messages: "512 bytes", "3.2 MiB", "394 TiB" (three significant digits, powers of 1024).
 inline std::string bytesText(double b) {
     const char* units[] = {"bytes", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB"};

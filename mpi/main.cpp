@@ -10,6 +10,7 @@
 
 #include "app/field_input.h"
 #include "core/error.h"
+#include "core/number_text.h"
 #include "mpi/agree.h"
 #include "mpi/collective_writer.h"
 #include "mpi/distributed_mesh.h"
@@ -22,12 +23,6 @@ namespace {
 
 using namespace isoforge;
 using Clock = std::chrono::steady_clock;
-
-std::string withCommas(unsigned long long n) {
-    std::string s = std::to_string(n);
-    for (int i = static_cast<int>(s.size()) - 3; i > 0; i -= 3) s.insert(static_cast<std::size_t>(i), ",");
-    return s;
-}
 
 struct Args {
     std::string input, output, inside = "auto";
@@ -111,16 +106,15 @@ int runMesh(const Args& a, MPI_Comm comm) {
     MPI_Reduce(&leaves, &allLeaves, 1, MPI_UNSIGNED_LONG_LONG, MPI_SUM, 0, comm);
     const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
     if (rank == 0 && !a.quiet) {
-        std::printf("meshed %s on %d ranks (%d threads each): %s vertices, %s triangles in %.3f s -> %s\n",
-                    what.c_str(), ranks,
-                    static_cast<int>(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)),
-                    withCommas(piece.totalVertices).c_str(), withCommas(piece.totalTriangles).c_str(), seconds,
-                    a.output.c_str());
+        std::printf(
+            "meshed %s on %d ranks (%d threads each): %s vertices, %s triangles in %.3f s -> %s\n", what.c_str(), ranks,
+            static_cast<int>(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)),
+            countText(piece.totalVertices).c_str(), countText(piece.totalTriangles).c_str(), seconds, a.output.c_str());
         std::printf(
             "slabs of %d voxels: %s leaves sampled; mesh %.3f s, write %.3f s; MPI %.3f s, %s bytes exchanged; "
             "peak memory of a rank %s MiB\n",
-            so.slabWidth, withCommas(allLeaves).c_str(), meshSeconds, writeSeconds, maxMpi,
-            withCommas(allBytes).c_str(), withCommas(maxPeak >> 20).c_str());
+            so.slabWidth, countText(allLeaves).c_str(), meshSeconds, writeSeconds, maxMpi, countText(allBytes).c_str(),
+            countText(maxPeak >> 20).c_str());
     }
     return 0;
 }
