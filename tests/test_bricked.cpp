@@ -114,7 +114,7 @@ std::vector<Case> cases() {
 TEST(Slabs, PiecesMakeTheInMemoryMesh) {
     // Slabs of 128 and 256 voxels; normals (gradients across the seams) with the narrower.
     for (const Case& c : cases())
-        for (const auto [width, normals] : {std::pair{128, false}, std::pair{128, true}, std::pair{256, false}}) {
+        for (const auto& [width, normals] : {std::pair{128, false}, std::pair{128, true}, std::pair{256, false}}) {
             volume::SampleOptions so;
             so.voxelSize = c.voxel;
             if (!c.field->isDistance()) so.clip = implicit::Box3{glm::vec3(-2.f), glm::vec3(2.f)};
