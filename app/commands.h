@@ -35,6 +35,7 @@ void addSliceCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addShapesCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addCheckSceneCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 void addRenderCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
+void addViewCommand(CLI::App& app, const GlobalOptions& g, Commands& c);
 
 /// "1,234,567"
 std::string withCommas(unsigned long long n);

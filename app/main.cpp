@@ -69,6 +69,7 @@ int main(int argc, char** argv) {
     app::addSliceCommand(app, global, commands);
     app::addShapesCommand(app, global, commands);
     app::addCheckSceneCommand(app, global, commands);
+    app::addViewCommand(app, global, commands);
 
     // --version works without a subcommand.
     for (int i = 1; i < argc; ++i)

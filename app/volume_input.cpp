@@ -6,6 +6,7 @@
 
 #include <openvdb/tools/Filter.h>
 
+#include "core/number_text.h"
 #include "volume/dense_grid.h"
 
 namespace isoforge::app {
@@ -80,7 +81,7 @@ std::string describeVolume(const std::string& path, const volume::DenseVolume& v
     if (v.files > 1) s << ", " << v.files << " files";
     s << "\n";
     std::snprintf(line, sizeof line, "  dimensions   %lld x %lld x %lld (%s voxels of %s)\n", (long long)v.dims[0],
-                  (long long)v.dims[1], (long long)v.dims[2], withCommas(v.voxelCount()).c_str(), v.storedType.c_str());
+                  (long long)v.dims[1], (long long)v.dims[2], countText(v.voxelCount()).c_str(), v.storedType.c_str());
     s << line;
     std::snprintf(line, sizeof line, "  spacing      %.6g x %.6g x %.6g mm\n", sp.x, sp.y, sp.z);
     s << line;

@@ -206,6 +206,7 @@ std::string Evaluator::path(const std::string& p) const {
     std::error_code ec;
     if (std::filesystem::exists(full, ec) && !std::filesystem::is_regular_file(full, ec))
         throw IoError(full + ": not a regular file");  // a directory, /dev/zero, a FIFO
+    if (std::find(scene_.files.begin(), scene_.files.end(), full) == scene_.files.end()) scene_.files.push_back(full);
     return full;
 }
 

@@ -87,8 +87,9 @@ ScadExport exportScad(const std::string& path, const std::vector<std::string>& d
     if (!std::filesystem::is_regular_file(path, ec)) throw IoError(path + ": cannot open (no such file)");
     const TempDir tmp;
     const std::string out = (tmp.path / "model.csg").string(), log = (tmp.path / "openscad.log").string();
+    const std::string deps = (tmp.path / "model.d").string();
     const std::string program = openscadProgram();
-    std::vector<std::string> argv{program, "-o", out};
+    std::vector<std::string> argv{program, "-o", out, "-d", deps};
     for (const std::string& d : defines) {
         argv.push_back("-D");
         argv.push_back(d);
@@ -143,7 +144,47 @@ ScadExport exportScad(const std::string& path, const std::vector<std::string>& d
         }
     }
     result.csg = slurp(out);
+    if (std::filesystem::is_regular_file(deps, ec)) result.dependencies = parseMakeDependencies(slurp(deps));
+    if (result.dependencies.empty()) result.dependencies.push_back(path);
     return result;
+}
+
+std::vector<std::string> parseMakeDependencies(const std::string& text) {
+    std::vector<std::string> out;
+    std::string word;
+    bool afterColon = false;
+    const auto flush = [&] {
+        if (afterColon && !word.empty()) out.push_back(word);
+        word.clear();
+    };
+    for (std::size_t i = 0; i < text.size(); ++i) {
+        const char c = text[i];
+        if (c == '\\' && i + 1 < text.size()) {
+            const char n = text[i + 1];
+            if (n == '\n' || n == '\r') {  // a continued line
+                flush();
+                ++i;
+                if (n == '\r' && i + 1 < text.size() && text[i + 1] == '\n') ++i;
+                continue;
+            }
+            if (n == ' ' || n == '\\' || n == '#' || n == ':') {  // an escaped character of a name
+                word += n;
+                ++i;
+                continue;
+            }
+            word += c;
+        } else if (c == ':' && !afterColon &&
+                   (i + 1 == text.size() || text[i + 1] == ' ' || text[i + 1] == '\t' || text[i + 1] == '\n')) {
+            word.clear();  // the target
+            afterColon = true;
+        } else if (c == ' ' || c == '\t' || c == '\n' || c == '\r') {
+            flush();
+        } else {
+            word += c;
+        }
+    }
+    flush();
+    return out;
 }
 
 }  // namespace isoforge::csg

@@ -15,9 +15,13 @@ std::string openscadProgram();
 
 /// A CSG export of a .scad file and what OpenSCAD said while making it.
 struct ScadExport {
-    std::string csg;                ///< the exported text
-    std::vector<Warning> messages;  ///< OpenSCAD's WARNING/ECHO lines, with file:line where it gives them
+    std::string csg;                        ///< the exported text
+    std::vector<Warning> messages;          ///< OpenSCAD's WARNING/ECHO lines, with file:line where it gives them
+    std::vector<std::string> dependencies;  ///< every file OpenSCAD read (the model, include<>, use<>, import())
 };
+
+/// The prerequisites of a make rule as OpenSCAD's -d writes them ("out: a.scad b\ c.scad \\\n d.stl").
+std::vector<std::string> parseMakeDependencies(const std::string& text);
 
 /// Runs OpenSCAD on `path` with `defines` (NAME=VALUE each, passed as -D NAME=VALUE).
 /// @throw IoError when OpenSCAD is missing (the message names the Debian package) or cannot run;

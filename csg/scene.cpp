@@ -1,5 +1,6 @@
 #include "csg/scene.h"
 
+#include <algorithm>
 #include <cctype>
 #include <filesystem>
 #include <fstream>
@@ -80,6 +81,10 @@ Scene readScene(const std::string& path, const std::vector<std::string>& defines
         Scene s = parse(e.csg, path + " (as CSG)", std::filesystem::path(path).parent_path());
         e.messages.insert(e.messages.end(), s.warnings.begin(), s.warnings.end());
         s.warnings = std::move(e.messages);
+        for (std::string& f : s.files) e.dependencies.push_back(std::move(f));
+        s.files.clear();
+        for (std::string& f : e.dependencies)
+            if (std::find(s.files.begin(), s.files.end(), f) == s.files.end()) s.files.push_back(std::move(f));
         return s;
     }
     std::ifstream in(path, std::ios::binary);
@@ -88,7 +93,9 @@ Scene readScene(const std::string& path, const std::vector<std::string>& defines
     s << in.rdbuf();
     const std::string text = s.str();
     if (text.find('\0') != std::string::npos) throw IoError(path + ": not a text file (it contains NUL bytes)");
-    return parse(text, path, std::filesystem::path(path).parent_path());
+    Scene scene = parse(text, path, std::filesystem::path(path).parent_path());
+    scene.files.insert(scene.files.begin(), path);
+    return scene;
 }
 
 }  // namespace isoforge::csg

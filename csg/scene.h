@@ -49,6 +49,10 @@ struct Scene {
     std::vector<Warning> warnings;
     std::size_t primitives = 0;  ///< leaf shapes in the tree
     std::string tree;            ///< an indented outline of the tree, for check-scene
+    /// Every file the scene was made from: the scene file, what its statements read (vm(), volume(),
+    /// mesh(), import(), bezier_patches(), ...) and, for a .scad model, what OpenSCAD read (include<>,
+    /// use<>). Each once, in the order first read. What `isoforge view` watches.
+    std::vector<std::string> files;
 };
 
 /// A colour by SVG/CSS name ("steelblue") or "#rrggbb", as RGBA in [0, 1] (sRGB); ok = false if unknown.

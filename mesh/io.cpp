@@ -613,4 +613,8 @@ void writeMesh(const std::filesystem::path& path, const TriMesh& mesh, const Wri
         throw IoError(path.string() + ": cannot write '" + e + "' meshes (write .ply, .obj, .stl or .glb)");
 }
 
+std::string glbBytes(const TriMesh& mesh) {
+    return detail::encodeGlb(mesh);
+}
+
 }  // namespace isoforge::mesh

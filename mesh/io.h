@@ -25,6 +25,9 @@ TriMesh readMesh(const std::filesystem::path& path);
 /// @throw IoError on an unknown extension or a failed write (no partial file is left).
 void writeMesh(const std::filesystem::path& path, const TriMesh& mesh, const WriteOptions& options = {});
 
+/// The bytes of the .glb that writeMesh would write (what `isoforge view` sends to the browser).
+std::string glbBytes(const TriMesh& mesh);
+
 /// True if the extension names a mesh format we can write (.ply .obj .stl .glb).
 bool isMeshPath(const std::filesystem::path& path);
 /// True if the extension names a mesh format we can read (.ply .obj .stl .off).

@@ -23,6 +23,8 @@ packages=(
   libopenvdb-tools
   # OpenSCAD models (.scad input runs openscad) and its regression corpus (tests and bench/openscad_corpus.py)
   openscad openscad-testing-data
+  # isoforge view: its HTTP server (cpp-httplib), three.js for the page, and headless Chromium for its test
+  libcpp-httplib-dev libjs-three chromium
   # many machines: isoforge-mpi (mpi/, docs/scaling.md) on OpenMPI
   libopenmpi-dev openmpi-bin
   # tests and benchmarks
