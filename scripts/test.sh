@@ -6,8 +6,9 @@
 #   scripts/test.sh --sanitize-quick  CI's sanitizer pass: the clang tree that scripts/fuzz.sh fuzzes in
 #                                     (build-fuzz/: ASan + UBSan + libFuzzer's coverage), the unit tests of the
 #                                     parsers, readers and geometry (test_csg, test_mesh, test_implicit,
-#                                     test_volume, test_volumes, less their slowest tests) under it; the
-#                                     libraries compile once for both
+#                                     test_volume, test_volumes, less their slowest tests) and of isoforge
+#                                     view's watcher and builder (test_view) under it; the libraries compile
+#                                     once for both
 #   scripts/test.sh --tsan            ThreadSanitizer (clang) in build-tsan/: the thread-count determinism tests
 #                                     and the parallel meshing and sampling tests (TSAN_TESTS=REGEX for others)
 set -euo pipefail
@@ -27,7 +28,7 @@ sanitizer_env() {
 if [ "$mode" = "--sanitize-quick" ]; then
   source scripts/fuzz_tree.sh
   configure_fuzz_tree
-  suites=(test_csg test_mesh test_implicit test_volume test_volumes)
+  suites=(test_csg test_mesh test_implicit test_volume test_volumes test_view)
   cmake --build build-fuzz --target "${suites[@]}"
   sanitizer_env
   cd build-fuzz
