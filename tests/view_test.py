@@ -23,7 +23,7 @@ import tempfile
 import time
 import urllib.request
 
-ISOFORGE = os.path.abspath(sys.argv[1])
+ISOFORGE = None  # set by main() from the command line, or by a script that imports this one (bench/)
 BROWSER = "--no-browser" not in sys.argv
 failures = []
 
@@ -391,6 +391,11 @@ def browser_tests(tmp, bench):
 
 
 def main():
+    global ISOFORGE
+    if len(sys.argv) < 2 or sys.argv[1].startswith("-"):
+        print(__doc__)
+        return 2
+    ISOFORGE = os.path.abspath(sys.argv[1])
     tmp = tempfile.mkdtemp(prefix="isoforge-view-test-")
     try:
         if "--bench" not in sys.argv:
