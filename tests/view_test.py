@@ -172,13 +172,33 @@ def server_tests(tmp):
         s = rebuilt_after(lambda: save_by_rename(path, scene(0.5)), "the fix")
         check(s and "error" not in s and s["model"] > model, "the fix clears the error")
         check(s and [os.path.basename(f) for f in s["files"]] == ["view.isf"], "the mesh no longer read is no longer watched")
-        # A second save during a build cancels it: only the last one's model is made.
+        # Two saves in a row (each its own change): the model shown is the last one's, as the command line
+        # makes it. (Cancelling a build mid-way is test_view's Builder.ACoarseLookThenTheFullModel.)
         g = v.state()["generation"]
         save_by_rename(path, scene(0.55))
-        time.sleep(0.08)
+        time.sleep(0.3)
         save_by_rename(path, scene(0.65))
         s = v.wait_model(g + 1, "full", 30)
-        check(s and s["generation"] >= g + 2 and "error" not in s, "a save during a build starts the newest")
+        ply = os.path.join(tmp, "last.ply")
+        out = subprocess.run([ISOFORGE, "mesh", path, "--resolution", "64", "-o", ply], capture_output=True,
+                             text=True).stdout
+        m = re.search(r"([\d,]+) triangles", out)
+        check(s and "error" not in s and m and s["info"]["triangles"] == int(m.group(1).replace(",", "")),
+              "two saves in a row: the last one's model (%s triangles, the command line's %s)"
+              % (s and s["info"]["triangles"], m and m.group(1)))
+        # A save while a slow build runs cancels it: the next build starts at once, and its model is shown.
+        v2 = View(path, "--resolution", "400", "--coarse", "0")
+        try:
+            s = v2.wait_model(0, "full", 60)
+            g = s["generation"]
+            save_by_rename(path, scene(0.6))
+            busy = wait_for(lambda: v2.state()["building"] and v2.state()["generation"] > g, 10, 0.005)
+            save_by_rename(path, scene(0.62))
+            s = v2.wait_model(g + 1, "full", 60)
+            check(bool(busy) and s and s["cancelled"] >= 1 and "error" not in s,
+                  "a save during a build cancels it (%s cancelled)" % (s and s["cancelled"]))
+        finally:
+            v2.stop()
         # The port in use: a clear message, exit 1.
         port = v.url.rsplit(":", 1)[1].strip("/")
         r = subprocess.run([ISOFORGE, "view", path, "--port", port], capture_output=True, text=True, timeout=20)

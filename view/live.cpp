@@ -56,8 +56,9 @@ struct LiveView::State {
     long long buildGeneration = 0;
     std::string progressStage;
     double progressFraction = 0;
-    std::string error;      ///< the last build's error; empty after a good one
-    long long modelId = 0;  ///< 0: no model yet
+    std::string error;              ///< the last build's error; empty after a good one
+    long long modelId = 0;          ///< 0: no model yet
+    long long cancelledBuilds = 0;  ///< builds a newer change cancelled
     std::string modelStage, modelInfo, modelGlb;
     std::vector<std::string> files;  ///< what the model is made from (watched)
     bool filesChanged = false;
@@ -73,6 +74,7 @@ struct LiveView::State {
     std::string stateJson() {  // under m
         JsonObject o;
         o.num("version", double(version)).num("generation", double(buildGeneration)).flag("building", building);
+        o.num("cancelled", double(cancelledBuilds));
         if (building) o.str("progress_stage", progressStage).num("progress", progressFraction);
         if (!error.empty()) o.str("error", error);
         if (modelId > 0) o.num("model", double(modelId)).str("stage", modelStage).raw("info", modelInfo);
@@ -177,7 +179,11 @@ void LiveView::State::buildLoop() {
             filesChanged = true;
             watcher.interrupt();
         }
-        if (cancelled) continue;
+        if (cancelled) {
+            ++cancelledBuilds;
+            log("cancelled by a newer change");
+            continue;
+        }
         building = false;
         error = failure;
         if (!failure.empty()) log("error: " + failure);
