@@ -12,10 +12,12 @@ namespace isoforge {
 class Progress {
 public:
     virtual ~Progress() = default;
-    /// A new stage of work begins (e.g. "meshing").
+    /// A new stage of work begins (e.g. "meshing"). May throw to cancel the work.
     virtual void begin(const std::string& stage) = 0;
     /// `done` of `total` units of the current stage are finished.
+    /// May throw to cancel the work (it unwinds through TBB to the caller).
     virtual void update(std::size_t done, std::size_t total) = 0;
+    /// The stage is over. Must not throw: it is called from destructors, also while a cancellation unwinds.
     virtual void end() = 0;
 };
 

@@ -77,10 +77,7 @@ public:
         total_ = total;
         check();
     }
-    void end() override {
-        done_ = total_.load();
-        check();
-    }
+    void end() override { done_ = total_.load(); }  // never throws (core/progress.h)
     void cancel() { cancelled_ = true; }
     /// (stage, done, total) as last reported.
     std::tuple<std::string, std::size_t, std::size_t> snapshot() const {

@@ -401,3 +401,44 @@ TEST(MarchingCubes, CrossedCellBoxesHoldEveryCrossedCell) {
     fog->tree().setValue(Coord(-3, 5, 5), 0.9f);
     expectBoxesHoldEveryCrossedCell(*fog, 0.5f, false, openvdb::CoordBBox(Coord(-5), Coord(140)), 2, "fog tiles");
 }
+
+namespace {
+
+struct StopMeshing : std::exception {};
+
+/// Throws from update() after `after` reports, as a cancelled caller does (isoforge view, Python's
+/// Ctrl-C); end() throws too when `endThrows`, as the Python package's once did.
+class CancellingProgress final : public isoforge::Progress {
+public:
+    CancellingProgress(int after, bool endThrows) : after_(after), endThrows_(endThrows) {}
+    void begin(const std::string&) override {}
+    void update(std::size_t, std::size_t) override {
+        if (++reports_ > after_) {
+            cancelled_ = true;
+            throw StopMeshing();
+        }
+    }
+    void end() override {
+        if (endThrows_ && cancelled_) throw StopMeshing();
+    }
+
+private:
+    std::atomic<int> reports_{0};
+    const int after_;
+    const bool endThrows_;
+    std::atomic<bool> cancelled_{false};
+};
+
+}  // namespace
+
+// A cancellation unwinds the mesher (through TBB, its progress ticker's destructor) to the caller, and
+// never ends the process (std::terminate, which the Python package's Ctrl-C once met mid-meshing).
+TEST(MarchingCubes, ACancellingProgressStopsTheMesherCleanly) {
+    auto grid = openvdb::tools::createLevelSetSphere<FloatGrid>(60.f, Vec3f(0.f), 1.f, 3.f);
+    for (const bool endThrows : {false, true}) {
+        CancellingProgress p(3, endThrows);
+        isoforge::volume::MeshingOptions o;
+        o.progress = &p;
+        EXPECT_THROW(isoforge::volume::extractIsosurface(*grid, o), StopMeshing) << "end() throws: " << endThrows;
+    }
+}

@@ -440,8 +440,14 @@ public:
     ProgressTicker(Progress* p, const char* stage, std::size_t total) : p_(p), total_(total) {
         if (p_) p_->begin(stage);
     }
+    // Runs while a cancellation unwinds too: end() must not throw (core/progress.h), and if one does
+    // anyway the destructor swallows it rather than terminate the process.
     ~ProgressTicker() {
-        if (p_) p_->end();
+        if (!p_) return;
+        try {
+            p_->end();
+        } catch (...) {
+        }
     }
     void add(std::size_t n) {
         if (p_) p_->update(done_.fetch_add(n) + n, total_);
