@@ -140,6 +140,17 @@ def server_tests(tmp):
             first = r.readline().decode() + r.readline().decode()
             check(first.startswith("event: state\ndata: {") and '"generation"' in first, "the stream starts with the state")
 
+        # Many tabs open at once (each event stream holds a server thread): the server still answers.
+        streams = [urllib.request.urlopen(v.url + "events", timeout=5) for _ in range(12)]
+        for r in streams:
+            r.readline()
+        t0 = time.monotonic()
+        st, _, _ = get(v.url + "state", timeout=5)
+        check(st == 200 and time.monotonic() - t0 < 2, "with 12 event streams open the server still answers (%.3f s)"
+              % (time.monotonic() - t0))
+        for r in streams:
+            r.close()
+
         def rebuilt_after(change, what, stage="full"):
             g = v.state()["generation"]
             t0 = time.monotonic()

@@ -22,6 +22,9 @@ void* start(const char* host, int port, const HttpRoutes* routes, int* boundPort
     httplib::Server& s = r->server;
     // Shorter than httplib's 5 s, so that stop() does not wait long for idle keep-alive connections.
     s.set_keep_alive_timeout(1);
+    // Each open event stream holds a thread of the pool until it ends: room for many tabs and reloads
+    // (httplib's default is 8).
+    s.new_task_queue = [] { return new httplib::ThreadPool(32); };
     // httplib's default also sets SO_REUSEPORT, with which a second server binds a port in use and the
     // two share its connections; SO_REUSEADDR alone lets a restarted server have its port back.
     s.set_socket_options([](int sock) {

@@ -209,9 +209,9 @@ EventStream LiveView::State::openEvents() {
     auto seen = std::make_shared<long long>(-1);
     return [this, seen](std::string& out) {
         std::unique_lock lock(m);
-        // A comment every 15 s keeps proxies and the browser from closing a quiet stream.
-        const bool news =
-            changed.wait_for(lock, std::chrono::seconds(15), [&] { return stopping || version != *seen; });
+        // A comment every 3 s keeps a quiet stream open, and finds a closed one (a reloaded or closed tab)
+        // soon, so that its thread of the server's pool is freed.
+        const bool news = changed.wait_for(lock, std::chrono::seconds(3), [&] { return stopping || version != *seen; });
         if (stopping) return false;
         if (!news) {
             out = ": keep-alive\n\n";
