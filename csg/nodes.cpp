@@ -9,6 +9,7 @@ namespace isoforge::csg {
 
 using implicit::Box3;
 using implicit::Interval;
+using implicit::Pruned;
 
 namespace {
 
@@ -23,7 +24,9 @@ inline float smin(float a, float b, float k) {
 
 class Boolean final : public implicit::Field {
 public:
-    Boolean(BoolOp op, std::vector<FieldPtr> c, float k) : op_(op), children_(std::move(c)), k_(k) {}
+    Boolean(BoolOp op, std::vector<FieldPtr> c, float k) : op_(op), children_(std::move(c)), k_(k) {
+        for (const auto& child : children_) material_ = material_ || child->hasMaterial();
+    }
 
     float value(const glm::vec3& p) const override {
         float v = children_[0]->value(p);
@@ -63,34 +66,40 @@ public:
             if (!c->isDistance()) return false;
         return true;
     }
-    FieldPtr simplify(const Box3& box) const override {
-        // Bounds of the (transformed) children over the box.
-        std::vector<Interval> b(children_.size());
-        for (std::size_t i = 0; i < children_.size(); ++i)
-            b[i] = i == 0 ? children_[i]->bound(box) : other(children_[i]->bound(box));
+    FieldPtr simplify(const Box3& box) const override { return prune(box).field; }
+    Pruned prune(const Box3& box) const override {
+        // Each child's simplification and bound over the box (transformed by the op, as in bound()).
+        std::vector<Pruned> c(children_.size());
+        for (std::size_t i = 0; i < children_.size(); ++i) {
+            c[i] = children_[i]->prune(box);
+            if (i > 0) c[i].bound = other(c[i].bound);
+        }
+        Interval v = c[0].bound;
+        for (std::size_t i = 1; i < c.size(); ++i)
+            v = isMin() ? implicit::min(v, c[i].bound) : implicit::max(v, c[i].bound);
+        if (k_ > 0) v = isMin() ? Interval(v.lo - 0.25f * k_, v.hi) : Interval(v.lo, v.hi + 0.25f * k_);
         std::vector<std::size_t> keep;
         if (isMin()) {  // union: a child whose lowest value is above someone's highest (+ blend) never wins
             float best = kFar;
-            for (const auto& i : b) best = std::min(best, i.hi);
-            for (std::size_t i = 0; i < b.size(); ++i)
-                if (b[i].lo <= best + k_) keep.push_back(i);
+            for (const auto& i : c) best = std::min(best, i.bound.hi);
+            for (std::size_t i = 0; i < c.size(); ++i)
+                if (c[i].bound.lo <= best + k_) keep.push_back(i);
         } else {  // intersection / difference: a term below someone's lowest (- blend) never wins
             float best = -kFar;
-            for (const auto& i : b) best = std::max(best, i.lo);
-            for (std::size_t i = 0; i < b.size(); ++i)
-                if (b[i].hi >= best - k_ || (op_ == BoolOp::Difference && i == 0)) keep.push_back(i);
+            for (const auto& i : c) best = std::max(best, i.bound.lo);
+            for (std::size_t i = 0; i < c.size(); ++i)
+                if (c[i].bound.hi >= best - k_ || (op_ == BoolOp::Difference && i == 0)) keep.push_back(i);
         }
         bool changed = keep.size() != children_.size();
         std::vector<FieldPtr> kids;
         for (std::size_t i : keep) {
-            FieldPtr s = children_[i]->simplify(box);
-            changed = changed || s;
-            kids.push_back(s ? s : children_[i]);
+            changed = changed || c[i].field;
+            kids.push_back(c[i].field ? c[i].field : children_[i]);
         }
-        if (!changed) return nullptr;
-        if (kids.size() == 1 && (op_ != BoolOp::Difference || keep[0] == 0)) return kids[0];
-        if (op_ == BoolOp::Difference && keep[0] != 0) return nullptr;  // the first child is always kept
-        return std::make_shared<Boolean>(op_, std::move(kids), k_);
+        if (!changed) return {nullptr, v};
+        if (kids.size() == 1 && (op_ != BoolOp::Difference || keep[0] == 0)) return {kids[0], v};
+        if (op_ == BoolOp::Difference && keep[0] != 0) return {nullptr, v};  // the first child is always kept
+        return {std::make_shared<Boolean>(op_, std::move(kids), k_), v};
     }
     std::string describe() const override {
         static const char* names[] = {"union", "intersection", "difference"};
@@ -99,6 +108,7 @@ public:
         return s.str();
     }
     const implicit::Material* materialAt(const glm::vec3& p) const override {
+        if (!material_) return nullptr;  // (without a colour below, no need to find the child)
         // The child that decides the value there.
         std::size_t win = 0;
         float v = children_[0]->value(p);
@@ -111,6 +121,7 @@ public:
         }
         return children_[win]->materialAt(p);
     }
+    bool hasMaterial() const override { return material_; }
 
 private:
     bool isMin() const { return op_ == BoolOp::Union; }
@@ -124,6 +135,7 @@ private:
     BoolOp op_;
     std::vector<FieldPtr> children_;
     float k_;
+    bool material_ = false;
 };
 
 class Colored final : public implicit::Field {
@@ -138,11 +150,17 @@ public:
         FieldPtr s = child_->simplify(b);
         return s ? std::make_shared<Colored>(s, m_) : nullptr;
     }
+    Pruned prune(const Box3& b) const override {
+        Pruned c = child_->prune(b);
+        if (c.field) c.field = std::make_shared<Colored>(c.field, m_);
+        return c;
+    }
     std::string describe() const override { return child_->describe(); }
     const implicit::Material* materialAt(const glm::vec3& p) const override {
         const implicit::Material* inner = child_->materialAt(p);
         return inner ? inner : m_.get();
     }
+    bool hasMaterial() const override { return true; }
 
 private:
     FieldPtr child_;

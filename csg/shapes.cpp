@@ -1,7 +1,10 @@
 #include "csg/shapes.h"
 
+#include "csg/sectors.h"
+
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -146,6 +149,7 @@ public:
     }
     std::string describe() const override { return "linear_extrude(" + child_->describe() + ")"; }
     const implicit::Material* materialAt(const glm::vec3& p) const override { return child_->materialAt(p); }
+    bool hasMaterial() const override { return child_->hasMaterial(); }
 
 private:
     FieldPtr child_;
@@ -160,12 +164,13 @@ private:
 class RegularPolygon2D final : public Shape2D<RegularPolygon2D> {
 public:
     RegularPolygon2D(float r, int n, double phase)
-        : r_(r), n_(n), step_(2.0 * M_PI / n), phase_(phase), apothem_(r * std::cos(M_PI / n)) {}
-    float eval(glm::vec2 p) const {
-        const double phi = std::atan2(double(p.y), double(p.x)) - phase_;
-        const double mid = phase_ + (std::floor(phi / step_) + 0.5) * step_;
-        return static_cast<float>(p.x * std::cos(mid) + p.y * std::sin(mid) - apothem_);
-    }
+        : r_(r),
+          n_(n),
+          step_(2.0 * M_PI / n),
+          phase_(phase),
+          apothem_(r * std::cos(M_PI / n)),
+          sectors_(n, step_, phase, true) {}
+    float eval(glm::vec2 p) const { return static_cast<float>(sectors_.support(p.x, p.y) - apothem_); }
     /// The box of the vertices: exact (resize() and bounding boxes depend on it).
     std::pair<glm::vec2, glm::vec2> extent() const {
         glm::vec2 lo(r_), hi(-r_);
@@ -183,6 +188,7 @@ private:
     float r_;
     int n_;
     double step_, phase_, apothem_;
+    Sectors sectors_;
 };
 
 /// A 2D child (its x >= 0 side, or its mirror image for profiles on the x <= 0 side) revolved about
@@ -208,6 +214,8 @@ public:
             if (step_ < 0.9 * M_PI) {  // one segment over half a turn or more has no faceted meaning
                 cosHalf_ = std::cos(0.5 * step_);
                 faceted_ = true;
+                sectors_.emplace(full_ ? static_cast<int>(std::lround(2.0 * M_PI / step_)) : segments, step_,
+                                 double(lo_), full_);
             }
         }
     }
@@ -254,6 +262,7 @@ public:
     }
     std::string describe() const override { return "rotate_extrude(" + child_->describe() + ")"; }
     const implicit::Material* materialAt(const glm::vec3& p) const override { return child_->materialAt(p); }
+    bool hasMaterial() const override { return child_->hasMaterial(); }
 
 private:
     /// The profile at radius r. Points on the axis are taken a hair off it: a profile that touches
@@ -265,10 +274,7 @@ private:
     /// The profile's value at the point's radius (smooth) or at its faceted radius r'.
     float profile(const glm::vec3& p) const {
         if (!faceted_) return child(std::sqrt(p.x * p.x + p.y * p.y), p.z);
-        double phi = std::atan2(double(p.y), double(p.x)) - double(lo_);
-        if (phi < 0) phi += 2.0 * M_PI;
-        const double mid = double(lo_) + (std::floor(phi / step_) + 0.5) * step_;
-        const double along = p.x * std::cos(mid) + p.y * std::sin(mid);
+        const double along = sectors_->support(p.x, p.y);
         return static_cast<float>(child(static_cast<float>(std::max(along, 0.0) / cosHalf_), p.z) * cosHalf_);
     }
     /// Distance from p to the end half-plane at angle `ang` (for points inside the wedge).
@@ -281,6 +287,7 @@ private:
     bool mirror_ = false, full_ = true, faceted_ = false;
     float lo_ = 0.f, hi_ = 0.f;
     double step_ = 0, cosHalf_ = 1;
+    std::optional<Sectors> sectors_;  // faceted: the segments
     float axisOffset_ = 0.f;
 };
 

@@ -40,6 +40,12 @@ struct Material {
 class Field;
 using FieldPtr = std::shared_ptr<const Field>;
 
+/// A field's simplification over a box together with its bound there (Field::prune).
+struct Pruned {
+    FieldPtr field;  ///< simplify(box): nullptr when nothing can be dropped
+    Interval bound;  ///< bound(box), the same with or without what was dropped
+};
+
 /// A scalar field, negative inside. Fields are immutable and shared between threads; evaluation
 /// keeps no state in the field.
 class Field {
@@ -63,11 +69,18 @@ public:
     /// A field equal to this one inside `box`, cheaper to evaluate there (CSG pruning, tape
     /// simplification, far blobs dropped); nullptr when nothing can be dropped.
     virtual FieldPtr simplify(const Box3& box) const { return nullptr; }
+    /// simplify() and bound() over the same box, from one walk of the tree. Nodes with children
+    /// (booleans, transforms, colours) override it: asking each child for its bound and then for
+    /// its simplification walked a tree of nested groups once per level above each node.
+    virtual Pruned prune(const Box3& box) const { return {simplify(box), bound(box)}; }
     /// A short description, e.g. "torus(R=1, r=0.3)".
     virtual std::string describe() const = 0;
     /// The material of the part of the surface nearest p, as CSG colour and material nodes
     /// assign it; nullptr where none is given. Owned by the field.
     virtual const Material* materialAt(const glm::vec3& p) const { return nullptr; }
+    /// False when materialAt() is nullptr everywhere (no colour or material node anywhere in the
+    /// tree), so that callers can skip asking it per vertex or triangle.
+    virtual bool hasMaterial() const { return false; }
     /// The colour (RGBA) of materialAt(p); alpha 0 where no material is given.
     glm::vec4 colorAt(const glm::vec3& p) const {
         const Material* m = materialAt(p);

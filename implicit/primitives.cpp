@@ -284,6 +284,9 @@ public:
         // ||inverse||_2 = sqrt(largest eigenvalue of li^T li); distances scale by its reciprocal.
         scale_ = static_cast<float>(1.0 / std::sqrt(largestEigenvalue(glm::transpose(li) * li)));
     }
+    /// The same transform of another child (a simplification of this one's).
+    Transformed(FieldPtr child, const Transformed& like)
+        : child_(std::move(child)), m_(like.m_), inv_(like.inv_), scale_(like.scale_) {}
     float value(const glm::vec3& p) const override { return child_->value(local(p)) * scale_; }
     void values(std::span<const glm::vec3> p, std::span<float> out) const override {
         // One scratch buffer per nesting depth: a transform under a transform must not overwrite
@@ -310,10 +313,16 @@ public:
     bool isDistance() const override { return child_->isDistance(); }
     FieldPtr simplify(const Box3& box) const override {
         FieldPtr c = child_->simplify(localBox(box));
-        return c ? std::make_shared<Transformed>(c, m_) : nullptr;
+        return c ? std::make_shared<Transformed>(c, *this) : nullptr;
+    }
+    Pruned prune(const Box3& box) const override {
+        Pruned c = child_->prune(localBox(box));
+        return {c.field ? std::make_shared<Transformed>(c.field, *this) : nullptr,
+                {c.bound.lo * scale_, c.bound.hi * scale_}};
     }
     std::string describe() const override { return "transform(" + child_->describe() + ")"; }
     const implicit::Material* materialAt(const glm::vec3& p) const override { return child_->materialAt(local(p)); }
+    bool hasMaterial() const override { return child_->hasMaterial(); }
 
 private:
     glm::vec3 local(const glm::vec3& p) const { return glm::vec3(inv_ * glm::dvec4(p, 1.0)); }
@@ -364,6 +373,11 @@ public:
         FieldPtr c = child_->simplify(box);
         return c ? std::make_shared<Offset>(c, r_, shell_) : nullptr;
     }
+    Pruned prune(const Box3& box) const override {
+        const Pruned c = child_->prune(box);
+        return {c.field ? std::make_shared<Offset>(c.field, r_, shell_) : nullptr,
+                shell_ ? abs(c.bound) - Interval(r_) : c.bound - Interval(r_)};
+    }
     std::string describe() const override {
         std::ostringstream s;
         s << (shell_ ? "shell(t=" : "offset(r=") << (shell_ ? 2 * r_ : r_) << ") " << child_->describe();
@@ -371,6 +385,7 @@ public:
     }
 
     const implicit::Material* materialAt(const glm::vec3& p) const override { return child_->materialAt(p); }
+    bool hasMaterial() const override { return child_->hasMaterial(); }
 
 private:
     float apply(float v) const { return (shell_ ? std::abs(v) : v) - r_; }
@@ -392,15 +407,17 @@ public:
     }
     Box3 bounds() const override { return child_->bounds().intersect(box_); }
     bool isDistance() const override { return child_->isDistance(); }
-    FieldPtr simplify(const Box3& b) const override {
+    FieldPtr simplify(const Box3& b) const override { return prune(b).field; }
+    Pruned prune(const Box3& b) const override {
+        const Pruned c = child_->prune(b);
+        const Interval k = lipschitz(boxValue(b.centre()), 1.f, b.halfDiagonal());
         // Inside the box (with the region's own size to spare), the box term is never the max.
-        const Interval c = child_->bound(b), k = lipschitz(boxValue(b.centre()), 1.f, b.halfDiagonal());
-        if (k.hi < c.lo) return simplified(child_, b);
-        FieldPtr s = child_->simplify(b);
-        return s ? std::make_shared<Clipped>(s, box_) : nullptr;
+        if (k.hi < c.bound.lo) return {c.field ? c.field : child_, c.bound};
+        return {c.field ? std::make_shared<Clipped>(c.field, box_) : nullptr, max(c.bound, k)};
     }
     std::string describe() const override { return child_->describe(); }
     const implicit::Material* materialAt(const glm::vec3& p) const override { return child_->materialAt(p); }
+    bool hasMaterial() const override { return child_->hasMaterial(); }
 
 private:
     float boxValue(const glm::vec3& p) const { return boxDistance(p - box_.centre(), 0.5f * box_.size()); }

@@ -93,10 +93,11 @@ struct PreparedMeshes::Impl {
 std::vector<mesh::TriMesh> splitByMaterial(const mesh::TriMesh& m, const implicit::Field& field,
                                            std::vector<implicit::Material>& materials) {
     std::vector<const implicit::Material*> tag(m.triangles.size());
-    tbb::parallel_for(std::size_t{0}, m.triangles.size(), [&](std::size_t i) {
-        const auto& t = m.triangles[i];
-        tag[i] = field.materialAt((m.positions[t.x] + m.positions[t.y] + m.positions[t.z]) / 3.f);
-    });
+    if (field.hasMaterial())
+        tbb::parallel_for(std::size_t{0}, m.triangles.size(), [&](std::size_t i) {
+            const auto& t = m.triangles[i];
+            tag[i] = field.materialAt((m.positions[t.x] + m.positions[t.y] + m.positions[t.z]) / 3.f);
+        });
     // Materials in order of first use: deterministic.
     std::map<const implicit::Material*, std::size_t> slot;
     std::vector<mesh::TriMesh> out;

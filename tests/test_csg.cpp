@@ -1,5 +1,7 @@
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <functional>
 
 #include <tbb/global_control.h>
 #include <glm/common.hpp>
@@ -96,6 +98,62 @@ TEST(Csg, PruningKeepsValuesAndDropsFarChildren) {
     for (float x = -0.1f; x <= 0.1f; x += 0.02f)
         EXPECT_FLOAT_EQ(s->value(glm::vec3(x, 0.1f, 0)), u->value(glm::vec3(x, 0.1f, 0)));
     EXPECT_EQ(s->describe(), kids[0]->describe());  // only the one sphere is left
+}
+
+namespace {
+/// A sphere that counts the bounds asked of it.
+class CountingSphere final : public implicit::Field {
+public:
+    explicit CountingSphere(std::atomic<int>& bounds) : s_(implicit::makeSphere(0.3f)), bounds_(bounds) {}
+    float value(const glm::vec3& p) const override { return s_->value(p); }
+    implicit::Interval bound(const implicit::Box3& b) const override {
+        ++bounds_;
+        return s_->bound(b);
+    }
+    implicit::Box3 bounds() const override { return s_->bounds(); }
+    std::string describe() const override { return "counting sphere"; }
+
+private:
+    implicit::FieldPtr s_;
+    std::atomic<int>& bounds_;
+};
+}  // namespace
+
+TEST(Csg, PruningWalksNestedGroupsOnceAndKeepsBoundsAndValues) {
+    // OpenSCAD's exports nest groups and transforms deeply (a Menger sponge: 8 levels around 220
+    // cubes). Pruning a box asks each leaf for its bound once, not once per level above it, and
+    // gives the same bound as bound() and the same values as the whole tree.
+    std::atomic<int> asked{0};
+    std::function<implicit::FieldPtr(int, glm::vec3)> tree = [&](int depth, glm::vec3 at) -> implicit::FieldPtr {
+        if (depth == 0) return implicit::makeTranslated(std::make_shared<CountingSphere>(asked), at);
+        const float step = float(1 << depth) * 0.25f;
+        std::vector<implicit::FieldPtr> kids{tree(depth - 1, at), tree(depth - 1, at + glm::vec3(step, 0, 0))};
+        auto u = csg::makeUnion(kids);
+        if (depth % 2) u = csg::makeColored(u, glm::vec4(1, 0, 0, 1));
+        return implicit::makeTranslated(u, glm::vec3(0, 0.01f * depth, 0));
+    };
+    const implicit::FieldPtr whole =
+        csg::makeDifference({implicit::makeBox(glm::vec3(40, 2, 2)), tree(7, glm::vec3(0))});
+    for (float x : {0.f, 3.3f, 17.f}) {
+        const implicit::Box3 box{glm::vec3(x, -0.5f, -0.5f), glm::vec3(x + 1.f, 0.5f, 0.5f)};
+        const implicit::Interval b = whole->bound(box);
+        asked = 0;
+        const implicit::Pruned p = whole->prune(box);
+        EXPECT_EQ(asked.load(), 128)
+            << x;  // each of the 128 leaves once (bound, then simplify, walked it again per level)
+        EXPECT_EQ(p.bound.lo, b.lo);
+        EXPECT_EQ(p.bound.hi, b.hi);
+        ASSERT_TRUE(p.field);
+        for (float t = 0; t <= 1.f; t += 0.05f) {
+            const glm::vec3 q = glm::mix(box.min, box.max, glm::vec3(t, 1 - t, t * t));
+            EXPECT_EQ(p.field->value(q), whole->value(q)) << x << " " << t;
+            EXPECT_EQ(p.field->colorAt(q), whole->colorAt(q)) << x << " " << t;
+        }
+    }
+    EXPECT_TRUE(whole->hasMaterial());
+    EXPECT_FALSE(
+        csg::makeUnion({implicit::makeSphere(1.f), implicit::makeTranslated(implicit::makeSphere(1.f), glm::vec3(1))})
+            ->hasMaterial());
 }
 
 TEST(Scene, LanguageConstructsAndColours) {
@@ -708,5 +766,28 @@ TEST(Sharp, SameBytesWhateverTheThreadCount) {
         }
         EXPECT_EQ(m.positions, reference.positions) << threads << " threads";
         EXPECT_EQ(m.triangles, reference.triangles) << threads << " threads";
+    }
+    // Many coloured, nested children (OpenSCAD's testcolornames, smaller): each thread keeps the field
+    // pruned to the blocks it visits (volume/surface.cpp); that changes no vertex and no colour.
+    std::string text = "union() {";
+    for (int i = 0; i < 40; ++i)
+        text += " translate([" + std::to_string(i % 8) + ", " + std::to_string(i / 8) + ", 0]) color([" +
+                std::to_string(0.1 * (i % 10)) + ", 0.5, 0.2]) sphere(r = 0.8, $fn = 5);";
+    text += " }";
+    const auto spheres = csg::parseScene(text, "s.isf");
+    so.voxelSize = 0.06f;
+    o.maxError = 0;
+    for (int threads : {1, 2, 3}) {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+        const mesh::TriMesh m = volume::meshSurface(*volume::sample(spheres.root, so), spheres.root, o);
+        if (threads == 1) {
+            reference = m;
+            test::expectClosedSurface(m, "sharp spheres");
+            EXPECT_EQ(m.colors.size(), m.positions.size());
+            continue;
+        }
+        EXPECT_EQ(m.positions, reference.positions) << threads << " threads";
+        EXPECT_EQ(m.triangles, reference.triangles) << threads << " threads";
+        EXPECT_EQ(m.colors, reference.colors) << threads << " threads";
     }
 }

@@ -1,6 +1,7 @@
 // OpenSCAD's twisted and scaled linear_extrude: the same polyhedron OpenSCAD 2021.01 builds, its 2D
 // booleans by Clipper, caps of profiles with holes, and the extrusions OpenSCAD drops from booleans.
 #include <cmath>
+#include <random>
 #include <stdexcept>
 #include <string>
 
@@ -8,6 +9,7 @@
 
 #include "csg/profile.h"
 #include "csg/scene.h"
+#include "csg/sectors.h"
 #include "csg/shapes.h"
 #include "mesh/check.h"
 #include "mesh/triangulate.h"
@@ -239,4 +241,65 @@ TEST(OpenScadExtrude, OffsetOfOutlinesAsOpenScadsClipperOffset) {
     EXPECT_TRUE(gone.root->bounds().isEmpty());
     // Of a 3D object, our extension: the field's offset.
     EXPECT_NEAR(csg::parseScene("offset(r = 0.5) sphere(1);", "s.isf").root->value(glm::vec3(0.f)), -1.5f, 1e-5f);
+}
+
+TEST(OpenScad, SectorsFindTheFacetWithoutTrigonometry) {
+    // The polynomial atan2 behind the faceted fields ($fn spheres, cylinders, circles, revolutions).
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> u(-1, 1);
+    double worst = 0;
+    for (int i = 0; i < 200000; ++i) {
+        const double x = u(rng), y = u(rng);
+        worst = std::max(worst, std::abs(csg::Sectors::atan2Approx(y, x) - std::atan2(y, x)));
+    }
+    for (double a = -M_PI; a <= M_PI; a += M_PI / 8)  // axes and diagonals exactly
+        worst = std::max(worst, std::abs(csg::Sectors::atan2Approx(std::sin(a), std::cos(a)) -
+                                         std::atan2(std::sin(a), std::cos(a))));
+    EXPECT_LT(worst, 0.5 * csg::Sectors::kGuessError);
+    EXPECT_EQ(csg::Sectors::atan2Approx(0, 0), 0.0);
+
+    // support() is the dot product with the middle of the sector the point's angle is in (what
+    // atan2, floor, cos and sin compute), for full turns and open fans, few sectors and very many,
+    // points anywhere and points on the sectors' boundaries.
+    struct Case {
+        int n;
+        double step, start;
+        bool closed;
+    };
+    const std::vector<Case> cases{{3, 2 * M_PI / 3, 0, true},
+                                  {4, M_PI / 2, M_PI / 4, true},
+                                  {7, 2 * M_PI / 7, -1.0, true},
+                                  {96, 2 * M_PI / 96, 0, true},
+                                  {20, 2 * M_PI / 20, M_PI / 2 - M_PI / 20, true},
+                                  {200000, 2 * M_PI / 200000, 0, true},
+                                  {2, 50 * M_PI / 180, 0, false},
+                                  {5, 0.5, -2.5, false},
+                                  {30, 0.2, -6.0, false}};
+    for (const Case& c : cases) {
+        const csg::Sectors sectors(c.n, c.step, c.start, c.closed);
+        auto exact = [&](double x, double y) {
+            double phi = std::atan2(y, x) - c.start;
+            phi -= 2 * M_PI * std::floor(phi / (2 * M_PI));
+            const double mid = c.start + (std::floor(phi / c.step) + 0.5) * c.step;
+            return x * std::cos(mid) + y * std::sin(mid);
+        };
+        auto inFan = [&](double x, double y) {
+            double phi = std::atan2(y, x) - c.start;
+            phi -= 2 * M_PI * std::floor(phi / (2 * M_PI));
+            return c.closed || phi < c.n * c.step;
+        };
+        int checked = 0;
+        auto check = [&](double x, double y) {
+            if (!inFan(x, y)) return;
+            ++checked;
+            ASSERT_NEAR(sectors.support(x, y), exact(x, y), 1e-9 * (std::abs(x) + std::abs(y)))
+                << c.n << " sectors at (" << x << ", " << y << ")";
+        };
+        for (int i = 0; i < 20000; ++i) check(10 * u(rng), 10 * u(rng));
+        for (int k = 0; k <= std::min(c.n, 400); ++k) {  // on boundaries, and a hair either side
+            const double a = c.start + k * c.step;
+            for (double e : {-1e-9, 0.0, 1e-9}) check(3 * std::cos(a + e), 3 * std::sin(a + e));
+        }
+        EXPECT_GT(checked, 1000) << c.n;
+    }
 }

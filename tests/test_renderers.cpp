@@ -179,6 +179,7 @@ public:
     bool isDistance() const override { return f_->isDistance(); }
     std::string describe() const override { return f_->describe(); }
     const implicit::Material* materialAt(const glm::vec3& p) const override { return f_->materialAt(p); }
+    bool hasMaterial() const override { return f_->hasMaterial(); }
 
 private:
     implicit::FieldPtr f_;

@@ -84,8 +84,8 @@ public:
                 }
             return;
         }
-        if (size == 8) {
-            out.leaves.push_back({origin, f});
+        if (size == 8) {  // a leaf samples its 512 voxel centres: the field pruned to their box
+            out.leaves.push_back({origin, implicit::simplified(f, box)});
             if (leafCount_.fetch_add(1, std::memory_order_relaxed) + 1 > maxLeaves_) abort_ = true;
             return;
         }

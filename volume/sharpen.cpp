@@ -73,7 +73,7 @@ struct Bounds {
 
 /// Batches: vertices, cells and crease candidates are taken this many at a time, neighbours in the
 /// mesh's order (marching cubes writes block by block), so that each batch asks for a small box.
-constexpr std::size_t kBatch = 256;
+constexpr std::size_t kBatch = 64;
 
 std::size_t batchCount(std::size_t n) {
     return (n + kBatch - 1) / kBatch;

@@ -1,10 +1,13 @@
 #include "volume/surface.h"
 
+#include <array>
 #include <stdexcept>
 #include <vector>
 
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <glm/common.hpp>
+#include <glm/vector_relational.hpp>
 
 namespace isoforge::volume {
 
@@ -15,13 +18,76 @@ glm::vec3 toWorld(const openvdb::math::Transform& xform, const glm::vec3& p) {
     return glm::vec3(float(w.x()), float(w.y()), float(w.z()));
 }
 
+/// The field pruned to boxes that come in mesh order, block by block, as sharpen() and the colours ask
+/// for them: each thread keeps the field pruned to the block of 32 voxels around its last box, and
+/// that pruned to the block of 8 voxels (each with a quarter of its size to spare), and prunes the
+/// smallest that holds the box further for it. So the whole tree is bounded once per block rather
+/// than once per box (a Menger sponge's 220 cubes took half of its --sharp time, mostly in the
+/// probes of single feature cells). Pruning keeps the values there (implicit/field.h), so which
+/// thread pruned what changes no output.
+class PrunedField {
+public:
+    PrunedField(implicit::FieldPtr field, const openvdb::math::Transform& xform) : field_(std::move(field)) {
+        const float voxel = float(xform.voxelSize()[0]);
+        block_ = {32.f * voxel, 8.f * voxel};
+    }
+
+    implicit::FieldPtr operator()(const implicit::Box3& box) const {
+        Slots& slots = slots_.local();
+        implicit::FieldPtr f = field_;
+        for (std::size_t level = 0; level < block_.size(); ++level) {
+            const float size = block_[level], margin = 0.25f * size;
+            if (!(size > 0)) break;
+            const glm::vec3 cell = glm::floor(box.min / size);
+            const implicit::Box3 region{cell * size - glm::vec3(margin), (cell + 1.f) * size + glm::vec3(margin)};
+            if (!glm::all(glm::greaterThanEqual(box.min, region.min)) ||
+                !glm::all(glm::lessThanEqual(box.max, region.max)))
+                break;
+            // Direct-mapped by block: sharpen's feature cells come in x-major order, so a thread
+            // revisits the blocks of a slab of the grid, not only its last one.
+            const glm::ivec3 c(cell);
+            Slot& slot = slots[level][std::size_t((c.x * 73856093) ^ (c.y * 19349663) ^ (c.z * 83492791)) % kWays];
+            if (!slot.field || slot.cell != cell || slot.parent != f) {
+                slot.cell = cell;
+                slot.parent = f;
+                slot.field = implicit::simplified(f, region);
+            }
+            f = slot.field;
+        }
+        return implicit::simplified(f, box);
+    }
+
+private:
+    struct Slot {
+        glm::vec3 cell{0.f};
+        implicit::FieldPtr parent, field;  // the field pruned to the cell's region, and what it was pruned from
+    };
+    static constexpr std::size_t kWays = 128;
+    using Slots = std::array<std::array<Slot, kWays>, 2>;
+    implicit::FieldPtr field_;
+    std::array<float, 2> block_{};
+    mutable tbb::enumerable_thread_specific<Slots> slots_;
+};
+
 /// Colours of the field's CSG colour nodes, per vertex (white where none is given); none when no node gives one.
-void colourByMaterial(mesh::TriMesh& m, const implicit::Field& field) {
-    if (m.empty() || field.colorAt(m.positions.front()).a < 0.f) return;
+/// Vertices go 64 at a time in mesh order, each batch asking the field pruned to its box.
+void colourByMaterial(mesh::TriMesh& m, const implicit::FieldPtr& field, const openvdb::math::Transform& xform) {
+    if (m.empty() || !field->hasMaterial()) return;
     m.colors.resize(m.positions.size());
-    tbb::parallel_for(std::size_t{0}, m.positions.size(), [&](std::size_t i) {
-        const glm::vec4 col = field.colorAt(m.positions[i]);
-        m.colors[i] = col.a > 0 ? glm::vec3(col) : glm::vec3(1.f);
+    const PrunedField pruned(field, xform);
+    constexpr std::size_t kBatch = 64;
+    tbb::parallel_for(std::size_t{0}, (m.positions.size() + kBatch - 1) / kBatch, [&](std::size_t batch) {
+        const std::size_t begin = batch * kBatch, end = std::min(m.positions.size(), begin + kBatch);
+        implicit::Box3 box;
+        for (std::size_t i = begin; i < end; ++i) {
+            box.min = glm::min(box.min, m.positions[i]);
+            box.max = glm::max(box.max, m.positions[i]);
+        }
+        const implicit::FieldPtr f = pruned(box);
+        for (std::size_t i = begin; i < end; ++i) {
+            const glm::vec4 col = f->colorAt(m.positions[i]);
+            m.colors[i] = col.a > 0 ? glm::vec3(col) : glm::vec3(1.f);
+        }
     });
     bool any = false;
     for (const auto& col : m.colors) any = any || col != glm::vec3(1.f);
@@ -47,7 +113,8 @@ mesh::TriMesh meshSurface(const openvdb::FloatGrid& grid, const implicit::FieldP
         const openvdb::math::Transform& xform = grid.transform();
         if (field) {
             // Each batch evaluates the field pruned to its box (CSG children that cannot reach it dropped).
-            auto pruned = [&field, &xform](const glm::vec3& lo, const glm::vec3& hi) -> IndexValues {
+            const PrunedField prunedTo(field, xform);
+            auto pruned = [&prunedTo, &xform](const glm::vec3& lo, const glm::vec3& hi) -> IndexValues {
                 implicit::Box3 box;
                 for (int c = 0; c < 8; ++c) {
                     const glm::vec3 w =
@@ -55,7 +122,7 @@ mesh::TriMesh meshSurface(const openvdb::FloatGrid& grid, const implicit::FieldP
                     box.min = glm::min(box.min, w);
                     box.max = glm::max(box.max, w);
                 }
-                const implicit::FieldPtr f = implicit::simplified(field, box);
+                const implicit::FieldPtr f = prunedTo(box);
                 return [f, &xform](std::span<const glm::vec3> p, std::span<float> out) {
                     std::vector<glm::vec3> world(p.size());
                     for (std::size_t i = 0; i < p.size(); ++i) world[i] = toWorld(xform, p[i]);
@@ -72,7 +139,7 @@ mesh::TriMesh meshSurface(const openvdb::FloatGrid& grid, const implicit::FieldP
     }
     st.fullTriangles = m.triangleCount();
     if (options.maxError > 0) st.simplify = mesh::simplify(m, options.maxError);
-    if (field && !options.indexSpace) colourByMaterial(m, *field);
+    if (field && !options.indexSpace) colourByMaterial(m, field, grid.transform());
     return m;
 }
 
