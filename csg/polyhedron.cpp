@@ -16,6 +16,7 @@
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
 
+#include "core/fast_atan2.h"
 #include "csg/shapes.h"
 #include "mesh/self_intersections.h"
 #include "mesh/triangulate.h"
@@ -70,7 +71,9 @@ double solidAngle(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c)
     // bottom edge of a mesh then counted as inside, and marching cubes made a blob around it.
     if (std::abs(num) <= 1e-12 * la * lb * lc) return 0.0;
     const double den = la * lb * lc + glm::dot(a, b) * lc + glm::dot(b, c) * la + glm::dot(c, a) * lb;
-    return 2.0 * std::atan2(num, den);
+    // The polynomial atan2: its error (3.5e-6 rad a triangle) is far from moving a sum of 0 or 4 pi
+    // across the 2 pi threshold, and glibc's atan2 took a third of the time of an open imported mesh.
+    return 2.0 * fastAtan2(num, den);
 }
 
 float boxDistance2(const glm::vec3& p, const glm::vec3& lo, const glm::vec3& hi) {

@@ -15,6 +15,8 @@
 #include <cmath>
 #include <vector>
 
+#include "core/fast_atan2.h"
+
 namespace isoforge::csg {
 
 class Sectors {
@@ -62,21 +64,8 @@ public:
         return best;
     }
 
-    /// atan2 by a degree-11 odd polynomial on [0, 1] and octant symmetry: error below 3.5e-6 radians
-    /// (tested against std::atan2); 0 at the origin.
-    static double atan2Approx(double y, double x) {
-        const double ax = std::abs(x), ay = std::abs(y);
-        const double hi = std::max(ax, ay), lo = std::min(ax, ay);
-        if (!(hi > 0)) return 0.0;
-        const double a = lo / hi, s = a * a;
-        double r = (((((-0.013480470 * s + 0.057477314) * s - 0.121239071) * s + 0.195635925) * s - 0.332994597) * s +
-                    0.999995630) *
-                   a;
-        if (ay > ax) r = M_PI_2 - r;
-        if (x < 0) r = M_PI - r;
-        return y < 0 ? -r : r;
-    }
-    static constexpr double kGuessError = 1e-5;
+    static double atan2Approx(double y, double x) { return fastAtan2(y, x); }
+    static constexpr double kGuessError = 1e-5;  // above kFastAtan2Error, with room for rounding
 
 private:
     static constexpr int kMaxTable = 1 << 16;  // beyond this many sectors, cos and sin on the fly
