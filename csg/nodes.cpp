@@ -122,6 +122,23 @@ public:
         return children_[win]->materialAt(p);
     }
     bool hasMaterial() const override { return material_; }
+    /// The gradient of the child that decides the value (negated for a difference's subtrahends):
+    /// exact on either side of a crease, where central differences would mix the two. Smooth blends
+    /// take central differences.
+    glm::vec3 gradient(const glm::vec3& p) const override {
+        if (k_ > 0) return Field::gradient(p);
+        std::size_t win = 0;
+        float v = children_[0]->value(p);
+        for (std::size_t i = 1; i < children_.size(); ++i) {
+            const float c = other(children_[i]->value(p));
+            if (isMin() ? c < v : c > v) {
+                v = c;
+                win = i;
+            }
+        }
+        const glm::vec3 g = children_[win]->gradient(p);
+        return win > 0 && op_ == BoolOp::Difference ? -g : g;
+    }
 
 private:
     bool isMin() const { return op_ == BoolOp::Union; }
@@ -161,6 +178,7 @@ public:
         return inner ? inner : m_.get();
     }
     bool hasMaterial() const override { return true; }
+    glm::vec3 gradient(const glm::vec3& p) const override { return child_->gradient(p); }
 
 private:
     FieldPtr child_;

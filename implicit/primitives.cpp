@@ -97,6 +97,18 @@ public:
             throw std::invalid_argument("box: rounding must be between 0 and half the smallest size");
     }
     float eval(const glm::vec3& p) const { return boxDistance(p, half_) - r_; }
+    /// Exact on either side of an edge: outside, towards the nearest point; inside, the nearest face's normal.
+    glm::vec3 gradient(const glm::vec3& p) const override {
+        const glm::vec3 q = glm::abs(p) - half_;
+        const glm::vec3 side(p.x < 0 ? -1.f : 1.f, p.y < 0 ? -1.f : 1.f, p.z < 0 ? -1.f : 1.f);
+        const glm::vec3 out = glm::max(q, glm::vec3(0.f));
+        const float len = glm::length(out);
+        if (len > 0) return side * out / len;
+        const int k = q.x >= q.y && q.x >= q.z ? 0 : (q.y >= q.z ? 1 : 2);
+        glm::vec3 g(0.f);
+        g[k] = side[k];
+        return g;
+    }
     Box3 bounds() const override { return {-0.5f * size_, 0.5f * size_}; }
     std::string describe() const override {
         return r_ > 0 ? fmt("box", {{"x", size_.x}, {"y", size_.y}, {"z", size_.z}, {"r", r_}})
@@ -322,6 +334,11 @@ public:
     }
     std::string describe() const override { return "transform(" + child_->describe() + ")"; }
     const implicit::Material* materialAt(const glm::vec3& p) const override { return child_->materialAt(local(p)); }
+    /// The child's gradient at the local point, by the chain rule: scale * (inverse's linear part)^T g.
+    glm::vec3 gradient(const glm::vec3& p) const override {
+        const glm::dvec3 g = glm::transpose(glm::dmat3(inv_)) * glm::dvec3(child_->gradient(local(p)));
+        return glm::vec3(g) * scale_;
+    }
     bool hasMaterial() const override { return child_->hasMaterial(); }
 
 private:
@@ -372,6 +389,10 @@ public:
     FieldPtr simplify(const Box3& box) const override {
         FieldPtr c = child_->simplify(box);
         return c ? std::make_shared<Offset>(c, r_, shell_) : nullptr;
+    }
+    glm::vec3 gradient(const glm::vec3& p) const override {
+        const glm::vec3 g = child_->gradient(p);
+        return shell_ && child_->value(p) < 0 ? -g : g;  // |v| turns the inside's gradient around
     }
     Pruned prune(const Box3& box) const override {
         const Pruned c = child_->prune(box);

@@ -156,6 +156,38 @@ TEST(Csg, PruningWalksNestedGroupsOnceAndKeepsBoundsAndValues) {
             ->hasMaterial());
 }
 
+TEST(Csg, GradientsAreTheActiveBranchsOwn) {
+    // sharpen() takes its Hermite normals from Field::gradient: at a crease the child that decides the
+    // value gives its own normal, where central differences across the crease mix the two faces.
+    const auto scene = csg::parseScene(
+        "rotate([0, 0, 30]) difference() { cube([2, 2, 2], center = true); translate([1, 1, 1]) sphere(r = 0.8); }",
+        "g.isf");
+    const glm::mat3 turn(glm::rotate(glm::mat4(1.f), glm::radians(30.f), glm::vec3(0, 0, 1)));
+    auto world = [&](glm::vec3 p) { return turn * p; };
+    // On the cube's +x face, a hair from the edge it shares with the +y face: the +x normal.
+    glm::vec3 g = scene.root->gradient(world(glm::vec3(1.f, 0.999999f, 0.f)));
+    EXPECT_NEAR(glm::distance(g, world(glm::vec3(1, 0, 0))), 0.f, 1e-5f);
+    g = scene.root->gradient(world(glm::vec3(0.999999f, 1.f, 0.f)));
+    EXPECT_NEAR(glm::distance(g, world(glm::vec3(0, 1, 0))), 0.f, 1e-5f);
+    // In the sphere's bite, the subtracted sphere's inward normal.
+    const glm::vec3 c(1, 1, 1), q = c - glm::normalize(glm::vec3(1, 1, 1)) * 0.8f;
+    g = scene.root->gradient(world(q));
+    EXPECT_NEAR(glm::distance(g, world(glm::normalize(glm::vec3(1, 1, 1)))), 0.f, 1e-4f);
+    // Away from creases the same as central differences, through transforms and scales.
+    const auto scaled = csg::parseScene("scale([2, 1, 0.5]) rotate([10, 20, 30]) sphere(r = 1);", "s.isf");
+    for (const glm::vec3 p : {glm::vec3(1.5f, 0.2f, 0.1f), glm::vec3(-0.3f, 0.8f, -0.2f)}) {
+        const glm::vec3 a = scaled.root->gradient(p);
+        glm::vec3 d;
+        for (int k = 0; k < 3; ++k) {
+            glm::vec3 u = p, v = p;
+            u[k] += 1e-3f;
+            v[k] -= 1e-3f;
+            d[k] = (scaled.root->value(u) - scaled.root->value(v)) / 2e-3f;
+        }
+        EXPECT_NEAR(glm::distance(a, d), 0.f, 2e-3f) << p.x;
+    }
+}
+
 TEST(Scene, LanguageConstructsAndColours) {
     const auto s = csg::parseScene(R"(
         // comment

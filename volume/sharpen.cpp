@@ -60,6 +60,22 @@ glm::vec3 stencilGradient(const float* v) {
     return glm::vec3(v[1] - v[0], v[3] - v[2], v[5] - v[4]) / (2.f * kStep);
 }
 
+/// The field's gradient at each point: its own where it gives one (the active branch of a min or
+/// max, exactly), else central differences of its values.
+void gradientsAt(const IndexValues& f, std::span<const glm::vec3> p, std::vector<glm::vec3>& out) {
+    out.resize(p.size());
+    if (f.gradients) {
+        f.gradients(p, out);
+        return;
+    }
+    std::vector<glm::vec3> pts;
+    pts.reserve(6 * p.size());
+    for (const glm::vec3& q : p) appendStencil(q, pts);
+    std::vector<float> v(pts.size());
+    f(pts, v);
+    for (std::size_t i = 0; i < p.size(); ++i) out[i] = stencilGradient(&v[6 * i]);
+}
+
 /// An index-space box grown point by point.
 struct Bounds {
     glm::vec3 lo{std::numeric_limits<float>::infinity()}, hi{-std::numeric_limits<float>::infinity()};
@@ -181,19 +197,19 @@ std::size_t flipCreases(const std::vector<glm::vec3>& P, std::vector<glm::uvec3>
             for (const glm::uvec3& t : u.tri) {
                 const glm::vec3 centre = (P[t.x] + P[t.y] + P[t.z]) / 3.f;
                 box.add(centre);
-                appendStencil(centre, pts);
+                pts.push_back(centre);
             }
         }
         if (pts.empty()) return;
-        std::vector<float> v(pts.size());
-        box.of(field)(pts, v);
-        const float* g = v.data();
+        std::vector<glm::vec3> normals;
+        gradientsAt(box.of(field), pts, normals);
+        const glm::vec3* g = normals.data();
         for (std::size_t c = begin; c < end; ++c) {
             Turn& u = turns[c];
             if (!u.ok) continue;
             double misfit[4];
-            for (int k = 0; k < 4; ++k, g += 6)
-                misfit[k] = 1.0 - glm::dot(unit(normalOf(u.tri[std::size_t(k)])), unit(glm::dvec3(stencilGradient(g))));
+            for (int k = 0; k < 4; ++k, ++g)
+                misfit[k] = 1.0 - glm::dot(unit(normalOf(u.tri[std::size_t(k)])), unit(glm::dvec3(*g)));
             u.before = misfit[0] + misfit[1];
             u.after = misfit[2] + misfit[3];
         }
@@ -340,11 +356,9 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
             moved[begin + j] = 1;
         }
         // The field's normal at every crossing (the Hermite data of step 3), once per vertex.
-        pts.clear();
-        for (std::size_t i = begin; i < end; ++i) appendStencil(P[i], pts);
-        v.resize(pts.size());
-        values(pts, v);
-        for (std::size_t j = 0; j < n; ++j) gradient[begin + j] = stencilGradient(&v[6 * j]);
+        std::vector<glm::vec3> g;
+        gradientsAt(values, std::span<const glm::vec3>(P.data() + begin, n), g);
+        std::copy(g.begin(), g.end(), gradient.begin() + std::ptrdiff_t(begin));
     });
     for (char m : moved) stats.refinedVertices += m;
 
@@ -491,12 +505,12 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
         // Hermite data (twice at most), which turns an edge point into the corner.
         for (int probe = 0; probe < 2; ++probe) {
             const glm::vec3 q(mass + x);
-            std::vector<glm::vec3> pts{q};
-            appendStencil(q, pts);
-            float v[7];
-            field(q - 4.f * kStep, q + 4.f * kStep)(pts, v);
-            const float f = v[0];
-            const glm::vec3 gq = stencilGradient(v + 1);
+            const IndexValues there = field(q - 4.f * kStep, q + 4.f * kStep);
+            float f;
+            there(std::span<const glm::vec3>(&q, 1), std::span<float>(&f, 1));
+            std::vector<glm::vec3> gs;
+            gradientsAt(there, std::span<const glm::vec3>(&q, 1), gs);
+            const glm::vec3 gq = gs[0];
             const double len = glm::length(glm::dvec3(gq));
             if (!(len > 0) || !std::isfinite(len)) break;
             const double dist = double(f) / len;  // in voxels

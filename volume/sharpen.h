@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <functional>
 #include <span>
+#include <type_traits>
 
 #include <openvdb/openvdb.h>
 #include <glm/vec3.hpp>
@@ -24,13 +25,26 @@ struct SharpenStats {
     std::size_t flips = 0;            ///< edges flipped to follow a crease from feature vertex to feature vertex
 };
 
-/// The field in index space (voxel units) at a batch of points: `out[i]` is the value at `p[i]`,
-/// negative inside, zero on the surface. Called from several threads at once.
-using IndexValues = std::function<void(std::span<const glm::vec3> p, std::span<float> out)>;
-/// The field for points within the index-space box [lo, hi]: a function that gives the field's values
+/// The field in index space (voxel units) at a batch of points: `values(p, out)` sets `out[i]` to the
+/// value at `p[i]`, negative inside, zero on the surface; `gradients(p, out)`, where given, the field's
+/// own gradient there (per voxel: the active branch of a CSG tree's min and max, a polyhedron's face
+/// normal), else sharpening takes central differences of the values 1e-3 voxels apart. Called from
+/// several threads at once.
+struct IndexValues {
+    using Values = std::function<void(std::span<const glm::vec3> p, std::span<float> out)>;
+    using Gradients = std::function<void(std::span<const glm::vec3> p, std::span<glm::vec3> out)>;
+    Values values;
+    Gradients gradients;
+
+    IndexValues(Values v, Gradients g = {}) : values(std::move(v)), gradients(std::move(g)) {}
+    template <class F>
+    requires std::is_invocable_v<F&, std::span<const glm::vec3>, std::span<float>> IndexValues(F f)
+        : values(std::move(f)) {}  // NOLINT: a function of values alone converts
+    void operator()(std::span<const glm::vec3> p, std::span<float> out) const { values(p, out); }
+};
+/// The field for points within the index-space box [lo, hi]: the field's values (and gradients)
 /// there (a CSG field pruned to the box, say: `implicit::Field::simplify`). Sharpening asks once per
-/// batch of neighbouring vertices or cells and evaluates in batches; gradients are central
-/// differences 1e-3 voxels apart.
+/// batch of neighbouring vertices or cells and evaluates in batches.
 using IndexField = std::function<IndexValues(const glm::vec3& lo, const glm::vec3& hi)>;
 
 /// An IndexField from a function of one point (no pruning; tests and small fields).

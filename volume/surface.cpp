@@ -7,6 +7,8 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <glm/common.hpp>
+#include <glm/mat3x3.hpp>
+#include <glm/matrix.hpp>
 #include <glm/vector_relational.hpp>
 
 namespace isoforge::volume {
@@ -114,7 +116,12 @@ mesh::TriMesh meshSurface(const openvdb::FloatGrid& grid, const implicit::FieldP
         if (field) {
             // Each batch evaluates the field pruned to its box (CSG children that cannot reach it dropped).
             const PrunedField prunedTo(field, xform);
-            auto pruned = [&prunedTo, &xform](const glm::vec3& lo, const glm::vec3& hi) -> IndexValues {
+            // Index to world is affine: the transpose of its linear part takes world gradients to index ones.
+            const glm::vec3 origin = toWorld(xform, glm::vec3(0.f));
+            const glm::mat3 toIndex = glm::transpose(glm::mat3(toWorld(xform, glm::vec3(1, 0, 0)) - origin,
+                                                               toWorld(xform, glm::vec3(0, 1, 0)) - origin,
+                                                               toWorld(xform, glm::vec3(0, 0, 1)) - origin));
+            auto pruned = [&prunedTo, &xform, &toIndex](const glm::vec3& lo, const glm::vec3& hi) -> IndexValues {
                 implicit::Box3 box;
                 for (int c = 0; c < 8; ++c) {
                     const glm::vec3 w =
@@ -123,11 +130,16 @@ mesh::TriMesh meshSurface(const openvdb::FloatGrid& grid, const implicit::FieldP
                     box.max = glm::max(box.max, w);
                 }
                 const implicit::FieldPtr f = prunedTo(box);
-                return [f, &xform](std::span<const glm::vec3> p, std::span<float> out) {
+                auto values = [f, &xform](std::span<const glm::vec3> p, std::span<float> out) {
                     std::vector<glm::vec3> world(p.size());
                     for (std::size_t i = 0; i < p.size(); ++i) world[i] = toWorld(xform, p[i]);
                     f->values(world, out);
                 };
+                // The field's own gradient (the active branch of min and max), per voxel: A^T g.
+                auto gradients = [f, &xform, &toIndex](std::span<const glm::vec3> p, std::span<glm::vec3> out) {
+                    for (std::size_t i = 0; i < p.size(); ++i) out[i] = toIndex * f->gradient(toWorld(xform, p[i]));
+                };
+                return IndexValues(values, gradients);
             };
             sharpen(m, pruned, &st.sharpen);
         } else {
