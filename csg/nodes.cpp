@@ -109,17 +109,7 @@ public:
     }
     const implicit::Material* materialAt(const glm::vec3& p) const override {
         if (!material_) return nullptr;  // (without a colour below, no need to find the child)
-        // The child that decides the value there.
-        std::size_t win = 0;
-        float v = children_[0]->value(p);
-        for (std::size_t i = 1; i < children_.size(); ++i) {
-            const float c = other(children_[i]->value(p));
-            if (isMin() ? c < v : c > v) {
-                v = c;
-                win = i;
-            }
-        }
-        return children_[win]->materialAt(p);
+        return children_[winner(p)]->materialAt(p);
     }
     bool hasMaterial() const override { return material_; }
     /// The gradient of the child that decides the value (negated for a difference's subtrahends):
@@ -127,6 +117,15 @@ public:
     /// take central differences.
     glm::vec3 gradient(const glm::vec3& p) const override {
         if (k_ > 0) return Field::gradient(p);
+        const std::size_t win = winner(p);
+        const glm::vec3 g = children_[win]->gradient(p);
+        return win > 0 && op_ == BoolOp::Difference ? -g : g;
+    }
+
+private:
+    bool isMin() const { return op_ == BoolOp::Union; }
+    /// The child that decides the value at p (the first of equals).
+    std::size_t winner(const glm::vec3& p) const {
         std::size_t win = 0;
         float v = children_[0]->value(p);
         for (std::size_t i = 1; i < children_.size(); ++i) {
@@ -136,12 +135,8 @@ public:
                 win = i;
             }
         }
-        const glm::vec3 g = children_[win]->gradient(p);
-        return win > 0 && op_ == BoolOp::Difference ? -g : g;
+        return win;
     }
-
-private:
-    bool isMin() const { return op_ == BoolOp::Union; }
     float other(float v) const { return op_ == BoolOp::Difference ? -v : v; }
     Interval other(Interval v) const { return op_ == BoolOp::Difference ? -v : v; }
     float combine(float a, float b) const {
