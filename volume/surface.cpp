@@ -47,8 +47,8 @@ public:
                 break;
             // Direct-mapped by block: sharpen's feature cells come in x-major order, so a thread
             // revisits the blocks of a slab of the grid, not only its last one.
-            const glm::ivec3 c(cell);
-            Slot& slot = slots[level][std::size_t((c.x * 73856093) ^ (c.y * 19349663) ^ (c.z * 83492791)) % kWays];
+            const glm::uvec3 c = glm::uvec3(glm::ivec3(cell));  // unsigned: the hash wraps instead of overflowing
+            Slot& slot = slots[level][std::size_t((c.x * 73856093u) ^ (c.y * 19349663u) ^ (c.z * 83492791u)) % kWays];
             if (!slot.field || slot.cell != cell || slot.parent != f) {
                 slot.cell = cell;
                 slot.parent = f;
