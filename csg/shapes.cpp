@@ -214,8 +214,7 @@ public:
             if (step_ < 0.9 * M_PI) {  // one segment over half a turn or more has no faceted meaning
                 cosHalf_ = std::cos(0.5 * step_);
                 faceted_ = true;
-                sectors_.emplace(full_ ? static_cast<int>(std::lround(2.0 * M_PI / step_)) : segments, step_,
-                                 double(lo_), full_);
+                sectors_.emplace(segments, step_, double(lo_), full_);
             }
         }
     }

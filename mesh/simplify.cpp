@@ -5,6 +5,7 @@
 #include <cmath>
 #include <queue>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 #include <glm/geometric.hpp>
@@ -25,8 +26,8 @@ namespace {
 
 using dvec3 = glm::dvec3;
 
-constexpr std::size_t kMaxOwned = 1024;
-constexpr double kMaxCells = 512;        // hash cells a triangle may span  // original vertices a collapse may reassign
+constexpr std::size_t kMaxOwned = 1024;  // original vertices a collapse may reassign
+constexpr double kMaxCells = 512;        // hash cells a triangle may span
 constexpr std::uint8_t kMaxRetries = 2;  // times a refused edge is offered again after collapses next to it
 constexpr double kTurn = 0.0;            // cos of the most a triangle may turn in one collapse: 90 degrees, never over
 
@@ -454,11 +455,8 @@ private:
                 if (it == parked_.end()) continue;
                 // Each edge is offered again a few times at most: a refusal for the distance bound
                 // rarely turns (most of the attempts were such retries), and each costs a full test.
-                if (++it->second > kMaxRetries) continue;
-                const std::uint64_t k = it->first;
-                const std::uint8_t tries = it->second;
+                if (++retries_[*it] > kMaxRetries) continue;
                 parked_.erase(it);
-                retried_[k] = tries;
                 push(std::min(w, x), std::max(w, x));
             }
         }
@@ -466,13 +464,8 @@ private:
     static std::uint64_t edgeKey(std::uint32_t a, std::uint32_t b) {
         return (std::uint64_t(std::min(a, b)) << 32) | std::max(a, b);
     }
-    /// A refused collapse waits until a collapse next to it changes its surroundings (it keeps the
-    /// count of its retries).
-    void park(std::uint32_t a, std::uint32_t b) {
-        const std::uint64_t k = edgeKey(a, b);
-        auto it = retried_.find(k);
-        parked_.emplace(k, it == retried_.end() ? std::uint8_t{0} : it->second);
-    }
+    /// A refused collapse waits until a collapse next to it changes its surroundings.
+    void park(std::uint32_t a, std::uint32_t b) { parked_.insert(edgeKey(a, b)); }
     bool seen(std::uint32_t t) {
         if (seen_.size() < T_.size()) seen_.resize(T_.size(), 0);
         if (seen_[t] == visit_) return true;
@@ -511,7 +504,8 @@ private:
     std::unordered_map<std::int64_t, std::vector<std::uint32_t>> hash_;
     double cell_ = 1.0;
     std::priority_queue<Candidate> heap_;
-    std::unordered_map<std::uint64_t, std::uint8_t> parked_, retried_;  // edge -> times offered again
+    std::unordered_set<std::uint64_t> parked_;
+    std::unordered_map<std::uint64_t, std::uint8_t> retries_;  // edge -> times offered again
     std::vector<std::uint32_t> seen_;
     std::uint32_t visit_ = 0;
     SimplifyStats stats_;
