@@ -25,7 +25,10 @@ inline float smin(float a, float b, float k) {
 class Boolean final : public implicit::Field {
 public:
     Boolean(BoolOp op, std::vector<FieldPtr> c, float k) : op_(op), children_(std::move(c)), k_(k) {
-        for (const auto& child : children_) material_ = material_ || child->hasMaterial();
+        for (const auto& child : children_) {
+            material_ = material_ || child->hasMaterial();
+            cheap_ = cheap_ && child->cheapGradient();
+        }
     }
 
     float value(const glm::vec3& p) const override {
@@ -117,10 +120,37 @@ public:
     /// take central differences.
     glm::vec3 gradient(const glm::vec3& p) const override {
         if (k_ > 0) return Field::gradient(p);
-        const std::size_t win = winner(p);
-        const glm::vec3 g = children_[win]->gradient(p);
-        return win > 0 && op_ == BoolOp::Difference ? -g : g;
+        glm::vec3 g(0.f);
+        valueAndGradient(p, g);
+        return g;
     }
+    /// The children with cheap gradients give theirs with their values; the others' values alone,
+    /// and the deciding child's gradient afterwards (central differences for one child, not all).
+    float valueAndGradient(const glm::vec3& p, glm::vec3& g) const override {
+        if (k_ > 0) {
+            g = Field::gradient(p);
+            return value(p);
+        }
+        std::size_t win = 0;
+        bool known = false;
+        float v = 0.f;
+        for (std::size_t i = 0; i < children_.size(); ++i) {
+            glm::vec3 gi(0.f);
+            const bool cheap = children_[i]->cheapGradient();
+            float c = cheap ? children_[i]->valueAndGradient(p, gi) : children_[i]->value(p);
+            if (i > 0) c = other(c);
+            if (i == 0 || (isMin() ? c < v : c > v)) {
+                v = c;
+                win = i;
+                known = cheap;
+                g = gi;
+            }
+        }
+        if (!known) g = children_[win]->gradient(p);
+        if (win > 0 && op_ == BoolOp::Difference) g = -g;
+        return v;
+    }
+    bool cheapGradient() const override { return cheap_; }
 
 private:
     bool isMin() const { return op_ == BoolOp::Union; }
@@ -148,6 +178,7 @@ private:
     std::vector<FieldPtr> children_;
     float k_;
     bool material_ = false;
+    bool cheap_ = k_ == 0;  ///< every child's gradient exact and cheap (cheapGradient)
 };
 
 class Colored final : public implicit::Field {
@@ -174,6 +205,8 @@ public:
     }
     bool hasMaterial() const override { return true; }
     glm::vec3 gradient(const glm::vec3& p) const override { return child_->gradient(p); }
+    float valueAndGradient(const glm::vec3& p, glm::vec3& g) const override { return child_->valueAndGradient(p, g); }
+    bool cheapGradient() const override { return child_->cheapGradient(); }
 
 private:
     FieldPtr child_;

@@ -169,12 +169,25 @@ public:
     }
     Box3 bounds() const override { return box_; }
     glm::vec3 gradient(const glm::vec3& q) const override {
+        glm::vec3 g(0.f);
+        valueAndGradient(q, g);
+        return g;
+    }
+    /// One closest-triangle search for both: away from the surface, the unit vector from the closest
+    /// point (away from the inside); on it, the face's normal (central differences for a mesh signed
+    /// by its winding number).
+    float valueAndGradient(const glm::vec3& q, glm::vec3& g) const override {
         const auto [c, tri] = closest(q);
+        const bool in = inside(q, c, tri);
         const glm::vec3 d = q - c.point;
         const float len = glm::length(d);
-        if (len > 1e-6f * (1.f + glm::length(box_.size()))) return (inside(q, c, tri) ? -1.f : 1.f) * d / len;
-        return pseudonormals_ ? faceNormal_[tri] : Field::gradient(q);  // on the surface
+        if (len > 1e-6f * (1.f + glm::length(box_.size())))
+            g = (in ? -1.f : 1.f) * d / len;
+        else
+            g = pseudonormals_ ? faceNormal_[tri] : Field::gradient(q);  // on the surface
+        return signedDistance(in, std::sqrt(c.d2));
     }
+    bool cheapGradient() const override { return true; }
     std::string describe() const override {
         return what_ + "(" + std::to_string(t_.size()) + " triangles" + (closed_ ? ")" : ", open)");
     }

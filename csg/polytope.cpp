@@ -60,6 +60,7 @@ public:
         return {float(lo), float(hi)};
     }
     Box3 bounds() const override { return box_; }
+    bool cheapGradient() const override { return true; }
     glm::vec3 gradient(const glm::vec3& p) const override {
         float v = -INFINITY;
         std::size_t best = 0;

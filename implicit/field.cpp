@@ -42,6 +42,11 @@ glm::vec3 Field::gradient(const glm::vec3& p) const {
     return g;
 }
 
+float Field::valueAndGradient(const glm::vec3& p, glm::vec3& g) const {
+    g = gradient(p);
+    return value(p);
+}
+
 FieldPtr simplified(const FieldPtr& f, const Box3& box) {
     FieldPtr s = f->simplify(box);
     return s ? s : f;

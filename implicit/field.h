@@ -63,6 +63,13 @@ public:
     virtual Box3 bounds() const = 0;
     /// Gradient; central differences unless a field knows better.
     virtual glm::vec3 gradient(const glm::vec3& p) const;
+    /// value(p), with gradient(p) in g: the same numbers, from one walk where a node can share the
+    /// work (a min or max finds its deciding child once, a polyhedron its closest triangle once).
+    virtual float valueAndGradient(const glm::vec3& p, glm::vec3& g) const;
+    /// True when valueAndGradient costs about what value does (an exact gradient, no central
+    /// differences): a boolean asks such children for both at once and the others for their values
+    /// only, so that a gradient through nested booleans walks the tree once, not once per level.
+    virtual bool cheapGradient() const { return false; }
     /// True when |value| never exceeds the distance to the surface and the field is 1-Lipschitz,
     /// so that values are usable as (conservative) distances: sphere tracing, narrow bands.
     virtual bool isDistance() const { return true; }

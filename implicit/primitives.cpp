@@ -52,6 +52,7 @@ public:
         const float l = glm::length(p);
         return l > 0 ? p / l : glm::vec3(0, 0, 1);
     }
+    bool cheapGradient() const override { return true; }
     Box3 bounds() const override { return {glm::vec3(-r_), glm::vec3(r_)}; }
     std::string describe() const override { return fmt("sphere", {{"r", r_}}); }
 
@@ -74,6 +75,7 @@ public:
         return s;
     }
     glm::vec3 gradient(const glm::vec3&) const override { return n_; }
+    bool cheapGradient() const override { return true; }
     Box3 bounds() const override { return Box3::everything(); }
     std::string describe() const override {
         return fmt("plane", {{"nx", n_.x}, {"ny", n_.y}, {"nz", n_.z}, {"d", d_}});
@@ -97,6 +99,7 @@ public:
             throw std::invalid_argument("box: rounding must be between 0 and half the smallest size");
     }
     float eval(const glm::vec3& p) const { return boxDistance(p, half_) - r_; }
+    bool cheapGradient() const override { return true; }
     /// Exact on either side of an edge: outside, towards the nearest point; inside, the nearest face's normal.
     glm::vec3 gradient(const glm::vec3& p) const override {
         const glm::vec3 q = glm::abs(p) - half_;
@@ -335,14 +338,21 @@ public:
     std::string describe() const override { return "transform(" + child_->describe() + ")"; }
     const implicit::Material* materialAt(const glm::vec3& p) const override { return child_->materialAt(local(p)); }
     /// The child's gradient at the local point, by the chain rule: scale * (inverse's linear part)^T g.
-    glm::vec3 gradient(const glm::vec3& p) const override {
-        const glm::dvec3 g = glm::transpose(glm::dmat3(inv_)) * glm::dvec3(child_->gradient(local(p)));
-        return glm::vec3(g) * scale_;
+    glm::vec3 gradient(const glm::vec3& p) const override { return chain(child_->gradient(local(p))); }
+    float valueAndGradient(const glm::vec3& p, glm::vec3& g) const override {
+        const float v = child_->valueAndGradient(local(p), g);
+        g = chain(g);
+        return v * scale_;
     }
+    bool cheapGradient() const override { return child_->cheapGradient(); }
     bool hasMaterial() const override { return child_->hasMaterial(); }
 
 private:
     glm::vec3 local(const glm::vec3& p) const { return glm::vec3(inv_ * glm::dvec4(p, 1.0)); }
+    /// The chain rule: a child's gradient at local(p) to this field's, scale * (inverse's linear part)^T g.
+    glm::vec3 chain(const glm::vec3& g) const {
+        return glm::vec3(glm::transpose(glm::dmat3(inv_)) * glm::dvec3(g)) * scale_;
+    }
     Box3 localBox(const Box3& box) const { return transformBox(box, inv_); }
     /// The box of the transformed box, by interval arithmetic per row (0 * infinity counts as 0,
     /// so that a 2D shape, infinite along z, keeps finite x and y bounds through a 2D transform).
@@ -391,9 +401,16 @@ public:
         return c ? std::make_shared<Offset>(c, r_, shell_) : nullptr;
     }
     glm::vec3 gradient(const glm::vec3& p) const override {
-        const glm::vec3 g = child_->gradient(p);
-        return shell_ && child_->value(p) < 0 ? -g : g;  // |v| turns the inside's gradient around
+        glm::vec3 g(0.f);
+        valueAndGradient(p, g);
+        return g;
     }
+    float valueAndGradient(const glm::vec3& p, glm::vec3& g) const override {
+        const float v = child_->valueAndGradient(p, g);
+        if (shell_ && v < 0) g = -g;  // |v| turns the inside's gradient around
+        return apply(v);
+    }
+    bool cheapGradient() const override { return child_->cheapGradient(); }
     Pruned prune(const Box3& box) const override {
         const Pruned c = child_->prune(box);
         return {c.field ? std::make_shared<Offset>(c.field, r_, shell_) : nullptr,

@@ -2,6 +2,7 @@
 #include <atomic>
 #include <cmath>
 #include <functional>
+#include <random>
 
 #include <tbb/global_control.h>
 #include <glm/common.hpp>
@@ -156,6 +157,18 @@ TEST(Csg, PruningWalksNestedGroupsOnceAndKeepsBoundsAndValues) {
             ->hasMaterial());
 }
 
+/// Central differences of a field's values, 1e-3 apart.
+static glm::vec3 centralDifference(const implicit::Field& f, const glm::vec3& p) {
+    glm::vec3 d;
+    for (int k = 0; k < 3; ++k) {
+        glm::vec3 a = p, b = p;
+        a[k] += 1e-3f;
+        b[k] -= 1e-3f;
+        d[k] = (f.value(a) - f.value(b)) / 2e-3f;
+    }
+    return d;
+}
+
 TEST(Csg, GradientsAreTheActiveBranchsOwn) {
     // sharpen() takes its Hermite normals from Field::gradient: at a crease the child that decides the
     // value gives its own normal, where central differences across the crease mix the two faces.
@@ -177,15 +190,44 @@ TEST(Csg, GradientsAreTheActiveBranchsOwn) {
     const auto scaled = csg::parseScene("scale([2, 1, 0.5]) rotate([10, 20, 30]) sphere(r = 1);", "s.isf");
     for (const glm::vec3 p : {glm::vec3(1.5f, 0.2f, 0.1f), glm::vec3(-0.3f, 0.8f, -0.2f)}) {
         const glm::vec3 a = scaled.root->gradient(p);
-        glm::vec3 d;
-        for (int k = 0; k < 3; ++k) {
-            glm::vec3 u = p, v = p;
-            u[k] += 1e-3f;
-            v[k] -= 1e-3f;
-            d[k] = (scaled.root->value(u) - scaled.root->value(v)) / 2e-3f;
-        }
+        const glm::vec3 d = centralDifference(*scaled.root, p);
         EXPECT_NEAR(glm::distance(a, d), 0.f, 2e-3f) << p.x;
     }
+}
+
+TEST(Csg, ValueAndGradientWalkOnceAndAgreeWithValue) {
+    // valueAndGradient is value() and gradient() from one walk: nested booleans of exact children
+    // (boxes, spheres, polyhedra) give both at once, faceted ones (central differences) their value
+    // and, when they decide, their gradient. The value must be value()'s to the bit, the gradient
+    // the deciding leaf's own.
+    const auto scene = csg::parseScene(R"(
+        difference() {
+            union() {
+                rotate([0, 0, 20]) cube([2, 2, 2], center = true);
+                translate([1.2, 0, 0]) union() { sphere(r = 0.7); cylinder(h = 3, r = 0.3, center = true, $fn = 12); }
+                translate([-1, -1, 0]) polyhedron(points = [[0,0,0],[1,0,0],[0,1,0],[0,0,1]],
+                                                  faces = [[0,1,2],[0,3,1],[0,2,3],[1,3,2]]);
+            }
+            intersection() { sphere(r = 0.9); translate([0, 0, 0.8]) cube(1, center = true); }
+        }
+    )",
+                                       "vg.isf");
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> u(-2.f, 2.f);
+    int away = 0;
+    for (int i = 0; i < 2000; ++i) {
+        const glm::vec3 p(u(rng), u(rng), u(rng));
+        glm::vec3 g(0.f);
+        const float v = scene.root->valueAndGradient(p, g);
+        ASSERT_EQ(v, scene.root->value(p)) << p.x << " " << p.y << " " << p.z;
+        ASSERT_EQ(g, scene.root->gradient(p));
+        // Away from creases (where a nudge keeps the deciding child) the same as central differences.
+        const glm::vec3 d = centralDifference(*scene.root, p);
+        if (glm::distance(glm::length(d), 1.f) > 1e-2f) continue;  // a crease within 1e-3, or inside a box's corner
+        ++away;
+        EXPECT_NEAR(glm::distance(g, d), 0.f, 2e-2f) << p.x << " " << p.y << " " << p.z;
+    }
+    EXPECT_GT(away, 1000);
 }
 
 TEST(Scene, LanguageConstructsAndColours) {

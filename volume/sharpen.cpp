@@ -271,7 +271,7 @@ std::size_t flipCreases(const std::vector<glm::vec3>& P, std::vector<glm::uvec3>
 
 }  // namespace
 
-void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOut) {
+void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOut, const openvdb::FloatGrid* samples) {
     SharpenStats stats;
     auto& P = mesh.positions;
     const std::size_t nv = P.size();
@@ -304,7 +304,25 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
             pts.push_back(pointOn(i, 1.f));
         }
         std::vector<float> v(pts.size());
-        values(pts, v);
+        if (samples) {
+            // The ends are grid points: their values are the grid's where it holds them (active voxels);
+            // the field is asked only for the others.
+            const openvdb::FloatGrid::ConstAccessor acc = samples->getConstAccessor();
+            std::vector<glm::vec3> missing;
+            std::vector<std::size_t> at;
+            for (std::size_t k = 0; k < pts.size(); ++k)
+                if (!acc.probeValue(openvdb::Coord(int(pts[k].x), int(pts[k].y), int(pts[k].z)), v[k])) {
+                    missing.push_back(pts[k]);
+                    at.push_back(k);
+                }
+            if (!missing.empty()) {
+                std::vector<float> mv(missing.size());
+                values(missing, mv);
+                for (std::size_t k = 0; k < at.size(); ++k) v[at[k]] = mv[k];
+            }
+        } else {
+            values(pts, v);
+        }
         struct Search {
             float ta = 0.f, tb = 1.f, fa, fb, t = 0.5f, tolerance;
             int side = 0;
@@ -373,9 +391,14 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
             out[k] = c;
         }
     };
+    // Block-major: the cells of an 8^3 block of the grid are neighbours in key order, so the field pruned
+    // to a block (PrunedField in surface.cpp) serves all of them in turn; x-major order went through a
+    // whole slab of blocks for each x and pruned each block eight times over.
     auto key = [](const glm::ivec3& c) {
-        return (std::uint64_t(std::uint32_t(c.x) & 0x1fffff) << 42) |
-               (std::uint64_t(std::uint32_t(c.y) & 0x1fffff) << 21) | std::uint64_t(std::uint32_t(c.z) & 0x1fffff);
+        const glm::uvec3 u = glm::uvec3(c) & 0x1fffffu;
+        const glm::uvec3 block = u >> 3u, in = u & 7u;
+        return (std::uint64_t(block.x) << 45) | (std::uint64_t(block.y) << 27) | (std::uint64_t(block.z) << 9) |
+               (in.x << 6) | (in.y << 3) | in.z;
     };
     std::vector<std::pair<std::uint64_t, std::size_t>> owned;  // (cell, triangle)
     owned.reserve(mesh.triangles.size());

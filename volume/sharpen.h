@@ -57,7 +57,10 @@ IndexField pointwise(std::function<float(const glm::vec3&)> value);
 /// under 1/10 of the largest dropped, centred on the crossings' mean) as a fan apex, if the point lies
 /// inside the cell and the fan over the patch's boundary is a graph over the patch's plane (no fold).
 /// Otherwise the cell keeps its marching cubes triangles. Deterministic; new vertices are appended.
-void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* stats = nullptr);
+/// `samples`, where given, is the grid the mesh was extracted from, sampled from the same field at
+/// iso-value 0: the crossings' edge ends take its active values instead of evaluating the field again.
+void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* stats = nullptr,
+             const openvdb::FloatGrid* samples = nullptr);
 
 /// The same for a grid's iso-surface: Hermite data from the grid's trilinear interpolant (its
 /// crossings and gradient), the inside on the side `insideBelow` says.

@@ -44,7 +44,7 @@ public:
             const implicit::Box3 region{cell * size - glm::vec3(margin), (cell + 1.f) * size + glm::vec3(margin)};
             if (!glm::all(glm::greaterThanEqual(box.min, region.min)) ||
                 !glm::all(glm::lessThanEqual(box.max, region.max)))
-                break;
+                return implicit::simplified(f, box);
             // Direct-mapped by block: sharpen's feature cells come in x-major order, so a thread
             // revisits the blocks of a slab of the grid, not only its last one.
             const glm::uvec3 c = glm::uvec3(glm::ivec3(cell));  // unsigned: the hash wraps instead of overflowing
@@ -56,7 +56,9 @@ public:
             }
             f = slot.field;
         }
-        return implicit::simplified(f, box);
+        // Within the finest block: its field as kept. Pruning again to a box of a few voxels (a cell's
+        // probe, a batch of vertices) dropped little and cost more than the evaluations it saved.
+        return f;
     }
 
 private:
@@ -141,7 +143,9 @@ mesh::TriMesh meshSurface(const openvdb::FloatGrid& grid, const implicit::FieldP
                 };
                 return IndexValues(values, gradients);
             };
-            sharpen(m, pruned, &st.sharpen);
+            // The grid holds the field's own values at its points (iso-value 0, inside below): the edge ends.
+            const bool fieldValues = options.isovalue == 0.f && insideIsBelow(grid, options.inside);
+            sharpen(m, pruned, &st.sharpen, fieldValues ? &grid : nullptr);
         } else {
             sharpenWithGrid(m, grid, options.isovalue, insideIsBelow(grid, options.inside), &st.sharpen);
         }
