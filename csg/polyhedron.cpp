@@ -169,22 +169,14 @@ public:
     }
     Box3 bounds() const override { return box_; }
     glm::vec3 gradient(const glm::vec3& q) const override {
-        glm::vec3 g(0.f);
-        valueAndGradient(q, g);
-        return g;
+        const auto [c, tri] = closest(q);
+        return gradientFrom(q, c, tri, [&] { return inside(q, c, tri); });
     }
-    /// One closest-triangle search for both: away from the surface, the unit vector from the closest
-    /// point (away from the inside); on it, the face's normal (central differences for a mesh signed
-    /// by its winding number).
+    /// One closest-triangle search for both.
     float valueAndGradient(const glm::vec3& q, glm::vec3& g) const override {
         const auto [c, tri] = closest(q);
         const bool in = inside(q, c, tri);
-        const glm::vec3 d = q - c.point;
-        const float len = glm::length(d);
-        if (len > 1e-6f * (1.f + glm::length(box_.size())))
-            g = (in ? -1.f : 1.f) * d / len;
-        else
-            g = pseudonormals_ ? faceNormal_[tri] : Field::gradient(q);  // on the surface
+        g = gradientFrom(q, c, tri, [in] { return in; });
         return signedDistance(in, std::sqrt(c.d2));
     }
     bool cheapGradient() const override { return true; }
@@ -342,6 +334,16 @@ private:
         return {best, bestTri};
     }
 
+    /// The gradient at q from its closest point: away from the surface, the unit vector from it (away
+    /// from the inside, which `in()` tells, asked only there); on it, the face's normal (central
+    /// differences for a mesh signed by its winding number).
+    template <class Inside>
+    glm::vec3 gradientFrom(const glm::vec3& q, const Closest& c, std::uint32_t tri, Inside in) const {
+        const glm::vec3 d = q - c.point;
+        const float len = glm::length(d);
+        if (len > 1e-6f * (1.f + glm::length(box_.size()))) return (in() ? -1.f : 1.f) * d / len;
+        return pseudonormals_ ? faceNormal_[tri] : Field::gradient(q);  // on the surface
+    }
     /// A point on the surface that is inside (see inside()) is the least negative normal float, not -0: marching
     /// cubes counts 0 as outside, and the value stays negative through scales and transforms.
     static float signedDistance(bool in, float d) { return in ? -std::max(d, std::numeric_limits<float>::min()) : d; }

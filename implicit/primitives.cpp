@@ -337,7 +337,6 @@ public:
     }
     std::string describe() const override { return "transform(" + child_->describe() + ")"; }
     const implicit::Material* materialAt(const glm::vec3& p) const override { return child_->materialAt(local(p)); }
-    /// The child's gradient at the local point, by the chain rule: scale * (inverse's linear part)^T g.
     glm::vec3 gradient(const glm::vec3& p) const override { return chain(child_->gradient(local(p))); }
     float valueAndGradient(const glm::vec3& p, glm::vec3& g) const override {
         const float v = child_->valueAndGradient(local(p), g);

@@ -45,8 +45,8 @@ public:
             if (!glm::all(glm::greaterThanEqual(box.min, region.min)) ||
                 !glm::all(glm::lessThanEqual(box.max, region.max)))
                 return implicit::simplified(f, box);
-            // Direct-mapped by block: sharpen's feature cells come in x-major order, so a thread
-            // revisits the blocks of a slab of the grid, not only its last one.
+            // Direct-mapped by block: sharpen's vertex batches and crease candidates come in mesh order,
+            // so a thread revisits the blocks of a slab of the grid, not only its last one.
             const glm::uvec3 c = glm::uvec3(glm::ivec3(cell));  // unsigned: the hash wraps instead of overflowing
             Slot& slot = slots[level][std::size_t((c.x * 73856093u) ^ (c.y * 19349663u) ^ (c.z * 83492791u)) % kWays];
             if (!slot.field || slot.cell != cell || slot.parent != f) {
