@@ -169,8 +169,9 @@ public:
     }
     Box3 bounds() const override { return box_; }
     glm::vec3 gradient(const glm::vec3& q) const override {
-        const auto [c, tri] = closest(q);
-        return gradientFrom(q, c, tri, [&] { return inside(q, c, tri); });
+        // Not a structured binding: clang 14 refuses to capture one in a lambda.
+        const auto hit = closest(q);
+        return gradientFrom(q, hit.first, hit.second, [&] { return inside(q, hit.first, hit.second); });
     }
     /// One closest-triangle search for both.
     float valueAndGradient(const glm::vec3& q, glm::vec3& g) const override {
