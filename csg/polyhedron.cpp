@@ -128,21 +128,20 @@ public:
     /// point of the batch's box (one traversal of the hierarchy per batch, not per point).
     void values(std::span<const glm::vec3> p, std::span<float> out) const override {
         if (p.empty()) return;
-        glm::vec3 lo(kInf), hi(-kInf);
-        for (const glm::vec3& q : p) lo = glm::min(lo, q), hi = glm::max(hi, q);
-        const Candidates near = candidates(lo, hi);
-        const bool few = near.tri.size() <= kMaxCandidates;
-        auto closestOf = [&](const glm::vec3& q) { return few ? closestAmong(q, near) : closest(q); };
+        std::vector<Hit> hit(p.size());
+        std::vector<std::uint32_t> idx(p.size());
+        std::iota(idx.begin(), idx.end(), 0u);
+        closestInBatch(p, idx, hit);
         if (pseudonormals_ && !facesOnly_) {
             for (std::size_t i = 0; i < p.size(); ++i) {
-                const auto [c, tri] = closestOf(p[i]);
+                const auto& [c, tri] = hit[i];
                 out[i] = signedDistance(inside(p[i], c, tri), std::sqrt(c.d2));
             }
             return;
         }
         std::vector<bool> in(p.size());
         for (std::size_t i = 0; i < p.size(); ++i) {
-            const auto [c, tri] = closestOf(p[i]);
+            const auto& [c, tri] = hit[i];
             const float d = std::sqrt(c.d2);
             // Earlier points of the batch that are likely neighbours: the previous one along each axis
             // of an 8^3 block, and the last one.
@@ -187,6 +186,8 @@ public:
 
 private:
     static constexpr std::size_t kMaxCandidates = 128;
+    static constexpr std::size_t kSplitPoints = 32, kSplitCandidates = 24;
+    using Hit = std::pair<Closest, std::uint32_t>;
     struct Node {
         glm::vec3 lo, hi;
         std::uint32_t first,
@@ -242,7 +243,7 @@ private:
         }
     }
 
-    std::pair<Closest, std::uint32_t> closest(const glm::vec3& q) const {
+    Hit closest(const glm::vec3& q) const {
         Closest best{kInf, kFace, glm::vec3(0.f)};
         std::uint32_t bestTri = 0;
         std::uint32_t stack[64];
@@ -276,6 +277,29 @@ private:
         return {best, bestTri};
     }
 
+    /// The closest triangle of each point p[i], i in idx, from the candidates of the points' box; a
+    /// box with many candidates and many points is cut in two across its longest side first, since
+    /// the candidates of a smaller box are fewer (the result does not depend on the cuts).
+    void closestInBatch(std::span<const glm::vec3> p, std::span<std::uint32_t> idx, std::span<Hit> hit) const {
+        glm::vec3 lo(kInf), hi(-kInf);
+        for (const std::uint32_t i : idx) lo = glm::min(lo, p[i]), hi = glm::max(hi, p[i]);
+        const Candidates near = candidates(lo, hi);
+        if (idx.size() > kSplitPoints && near.tri.size() > kSplitCandidates) {
+            const glm::vec3 ext = hi - lo;
+            const int axis = ext.x >= ext.y && ext.x >= ext.z ? 0 : (ext.y >= ext.z ? 1 : 2);
+            const float mid = 0.5f * (lo[axis] + hi[axis]);
+            const auto cut = std::partition(idx.begin(), idx.end(), [&](std::uint32_t i) { return p[i][axis] < mid; });
+            if (cut != idx.begin() && cut != idx.end()) {
+                const auto n = static_cast<std::size_t>(cut - idx.begin());
+                closestInBatch(p, idx.first(n), hit);
+                closestInBatch(p, idx.subspan(n), hit);
+                return;
+            }
+        }
+        const bool few = near.tri.size() <= kMaxCandidates;
+        for (const std::uint32_t i : idx) hit[i] = few ? closestAmong(p[i], near) : closest(p[i]);
+    }
+
     /// Triangles that can hold the closest point of some point of the box [lo, hi]: those within
     /// d(centre) + half the diagonal of it, which bounds every point's distance, nearest to the centre
     /// first, with their boxes; at most kMaxCandidates + 1 are collected (more: the caller searches
@@ -283,12 +307,20 @@ private:
     struct Candidates {
         std::vector<std::uint32_t> tri;
         std::vector<glm::vec3> lo, hi;
+        std::vector<float> gap2;  ///< squared distance from the batch's box to the triangle's, ascending
     };
     Candidates candidates(const glm::vec3& lo, const glm::vec3& hi) const {
         const glm::vec3 centre = 0.5f * (lo + hi);
         const float reach = std::sqrt(closest(centre).first.d2) + 0.5f * glm::length(hi - lo);
         const float reach2 = reach * reach * (1.f + 1e-5f) + 1e-30f;
-        std::vector<std::pair<float, std::uint32_t>> found;
+        struct Found {
+            float gap2, centre2;  // to the batch's box, to its centre
+            std::uint32_t tri;
+            bool operator<(const Found& o) const {
+                return gap2 != o.gap2 ? gap2 < o.gap2 : (centre2 != o.centre2 ? centre2 < o.centre2 : tri < o.tri);
+            }
+        };
+        std::vector<Found> found;
         std::uint32_t stack[64];
         int top = 0;
         stack[top++] = 0;
@@ -301,7 +333,8 @@ private:
                     const glm::uvec3& t = t_[order_[i]];
                     const glm::vec3 tlo = glm::min(glm::min(p_[t.x], p_[t.y]), p_[t.z]);
                     const glm::vec3 thi = glm::max(glm::max(p_[t.x], p_[t.y]), p_[t.z]);
-                    found.emplace_back(boxDistance2(centre, tlo, thi), order_[i]);
+                    const glm::vec3 g = glm::max(glm::max(tlo - hi, lo - thi), glm::vec3(0.f));
+                    found.push_back({glm::dot(g, g), boxDistance2(centre, tlo, thi), order_[i]});
                 }
                 continue;
             }
@@ -310,20 +343,23 @@ private:
         }
         std::sort(found.begin(), found.end());
         Candidates c;
-        for (const auto& [d, i] : found) {
-            const glm::uvec3& t = t_[i];
-            c.tri.push_back(i);
+        for (const Found& f : found) {
+            const glm::uvec3& t = t_[f.tri];
+            c.tri.push_back(f.tri);
+            c.gap2.push_back(f.gap2);
             c.lo.push_back(glm::min(glm::min(p_[t.x], p_[t.y]), p_[t.z]));
             c.hi.push_back(glm::max(glm::max(p_[t.x], p_[t.y]), p_[t.z]));
         }
         return c;
     }
     /// closest() over the candidates: the nearest, the lowest index among equals (a triangle whose
-    /// box is farther than the best so far cannot be nearer).
-    std::pair<Closest, std::uint32_t> closestAmong(const glm::vec3& q, const Candidates& c) const {
+    /// box is farther than the best so far cannot be nearer, nor can any after the first whose box is
+    /// farther from the batch's box).
+    Hit closestAmong(const glm::vec3& q, const Candidates& c) const {
         Closest best{kInf, kFace, glm::vec3(0.f)};
         std::uint32_t bestTri = 0;
         for (std::size_t k = 0; k < c.tri.size(); ++k) {
+            if (c.gap2[k] > best.d2) break;
             if (boxDistance2(q, c.lo[k], c.hi[k]) > best.d2) continue;
             const glm::uvec3& t = t_[c.tri[k]];
             const Closest r = closestOnTriangle(q, p_[t.x], p_[t.y], p_[t.z]);

@@ -436,6 +436,12 @@ TEST(Csg, MeshFieldBatchSignsMatchPointSigns) {
                 insideCount += batch[i] < 0;
             }
             compared += block.size();
+            // In any order (the batch is cut in boxes by coordinates, not by position in it).
+            std::reverse(block.begin(), block.end());
+            std::rotate(block.begin(), block.begin() + 37, block.end());
+            f->values(block, batch);
+            for (std::size_t i = 0; i < block.size(); ++i)
+                ASSERT_EQ(batch[i], f->value(block[i])) << "vertex " << v << " shuffled point " << i;
         }
     EXPECT_GT(insideCount, compared / 10);  // the blocks straddle the surface
 }

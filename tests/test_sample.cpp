@@ -10,6 +10,7 @@
 #include "implicit/quadric.h"
 #include "implicit/tape.h"
 #include "test_util.h"
+#include "volume/leaf_sampler.h"
 #include "volume/marching_cubes.h"
 #include "volume/sample.h"
 #include "volume/vdb_io.h"
@@ -173,6 +174,57 @@ TEST(Sample, WorkGrowsWithTheSurfaceNotTheVolume) {
     const double ratio = double(b.pointsEvaluated) / double(a.pointsEvaluated);
     EXPECT_GT(ratio, 3.0);
     EXPECT_LT(ratio, 5.0);  // a dense sampler would do 8x
+}
+
+TEST(Sample, LeavesSampledCoarseToFineMatchEveryPointEvaluated) {
+    // Beyond the band a leaf's points take +-band from a coarse neighbour; within it their own values.
+    // Leaves along each surface (and one far outside), for distance fields of every kind and a blobby
+    // field (which is not a distance and is sampled point by point).
+    const float voxel = 0.02f, band = 3.f * voxel;
+    const std::vector<std::pair<std::string, FieldPtr>> fields = {
+        {"sphere", makeSphere(1.f)},
+        {"box", makeBox(glm::vec3(1.6f, 1.2f, 0.8f))},
+        {"torus", makeTorus(0.8f, 0.25f)},
+        {"cone", makeCone(0.9f, 0.2f, 1.5f)},
+        {"ellipsoid", makeEllipsoid(glm::vec3(1.f, 0.6f, 0.3f))},
+        {"scaled offset", makeOffset(makeTransformed(makeCylinder(0.5f, 1.f),
+                                                     glm::mat4(glm::vec4(1.5f, 0, 0, 0), glm::vec4(0, 1, 0, 0),
+                                                               glm::vec4(0, 0, 0.7f, 0), glm::vec4(0.1f, 0, 0, 1))),
+                                     0.05f)},
+        {"blobby",
+         makeBlobby({{glm::vec3(0.f), 0.7f, 1.f}, {glm::vec3(0.5f, 0.f, 0.f), 0.6f, 1.f}}, 0.5f, BlobKernel::Wyvill)},
+    };
+    for (const auto& [name, f] : fields) {
+        volume::LeafSampler ls(voxel, band, f->isDistance());
+        std::vector<glm::vec3> p(512);
+        std::vector<float> all(512);
+        std::size_t leaves = 0, clamped = 0;
+        for (int k = 0; k <= 40; ++k) {
+            // Leaves along a line through the field's box, the last one far outside.
+            const glm::vec3 at = k == 40 ? glm::vec3(3.f) : glm::vec3(-1.2f + 0.06f * k, 0.013f * k, 0.01f * k);
+            const openvdb::Coord c(8 * int(std::floor(at.x / voxel / 8)), 8 * int(std::floor(at.y / voxel / 8)),
+                                   8 * int(std::floor(at.z / voxel / 8)));
+            for (int i = 0; i < 512; ++i)
+                p[i] = glm::vec3(c.x() + (i >> 6), c.y() + ((i >> 3) & 7), c.z() + (i & 7)) * voxel;
+            f->values(p, all);
+            const std::span<const float> got = ls.sample(*f, c);
+            for (int i = 0; i < 512; ++i) {
+                if (f->isDistance() && std::abs(all[i]) >= band && std::abs(got[i]) == band) {
+                    ASSERT_EQ(got[i] < 0, all[i] < 0) << name << " leaf " << k << " point " << i;
+                    ++clamped;
+                } else {
+                    ASSERT_EQ(got[i], all[i]) << name << " leaf " << k << " point " << i;
+                }
+            }
+            ++leaves;
+        }
+        if (f->isDistance()) {
+            EXPECT_GT(clamped, leaves * 512 / 4) << name;  // most points of these leaves are beyond the band
+            EXPECT_LT(ls.evaluated(), leaves * 512 - clamped / 2) << name;
+        } else {
+            EXPECT_EQ(ls.evaluated(), leaves * 512) << name;
+        }
+    }
 }
 
 TEST(Sample, AbsurdRequestsAreRefusedWithAnEstimate) {

@@ -18,6 +18,7 @@
 #include "core/error.h"
 #include "core/number_text.h"
 #include "implicit/primitives.h"
+#include "volume/leaf_sampler.h"
 
 namespace isoforge::volume {
 
@@ -268,20 +269,17 @@ openvdb::FloatGrid::Ptr sample(const FieldPtr& field, const SampleOptions& o, Sa
         for (Job& j : r.leaves) jobs.push_back(std::move(j));
     }
     stats.leaves = jobs.size();
-    stats.pointsEvaluated = 512 * jobs.size();
 
     // Leaves: 512 points each, in parallel.
     using Leaf = openvdb::FloatTree::LeafNodeType;
     std::vector<std::unique_ptr<Leaf>> leaves(jobs.size());
     std::vector<std::uint8_t> allInside(jobs.size(), 0);
+    std::atomic<std::uint64_t> evaluated{0};
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, jobs.size(), 16), [&](const auto& r) {
-        std::vector<glm::vec3> points(512);
-        std::vector<float> values(512);
+        LeafSampler ls(voxel, background, stats.distance);
         for (std::size_t j = r.begin(); j != r.end(); ++j) {
             const Coord& c = jobs[j].origin;
-            for (int i = 0; i < 512; ++i)
-                points[i] = glm::vec3(c.x() + (i >> 6), c.y() + ((i >> 3) & 7), c.z() + (i & 7)) * voxel;
-            jobs[j].field->values(points, values);
+            const std::span<const float> values = ls.sample(*jobs[j].field, c);
             auto leaf = std::make_unique<Leaf>(c, background, false);
             bool anyActive = false, inside = true;
             for (int i = 0; i < 512; ++i) {
@@ -300,10 +298,12 @@ openvdb::FloatGrid::Ptr sample(const FieldPtr& field, const SampleOptions& o, Sa
             else
                 allInside[j] = inside;
         }
+        evaluated += ls.evaluated();
         if (o.progress)
             o.progress->update(tops.size() + (r.end() * tops.size()) / std::max<std::size_t>(jobs.size(), 1),
                                2 * tops.size());
     });
+    stats.pointsEvaluated = evaluated;
     if (o.progress) o.progress->end();
 
     auto& tree = grid->tree();
