@@ -186,7 +186,7 @@ public:
 
 private:
     static constexpr std::size_t kMaxCandidates = 128;
-    static constexpr std::size_t kSplitPoints = 32, kSplitCandidates = 24;
+    static constexpr std::size_t kSplitPoints = 32, kSplitCandidates = kMaxCandidates;
     using Hit = std::pair<Closest, std::uint32_t>;
     struct Node {
         glm::vec3 lo, hi;
@@ -278,8 +278,8 @@ private:
     }
 
     /// The closest triangle of each point p[i], i in idx, from the candidates of the points' box; a
-    /// box with many candidates and many points is cut in two across its longest side first, since
-    /// the candidates of a smaller box are fewer (the result does not depend on the cuts).
+    /// box with too many candidates to search among (and many points) is cut in two across its longest
+    /// side first, since the candidates of a smaller box are fewer (the result does not depend on the cuts).
     void closestInBatch(std::span<const glm::vec3> p, std::span<std::uint32_t> idx, std::span<Hit> hit) const {
         glm::vec3 lo(kInf), hi(-kInf);
         for (const std::uint32_t i : idx) lo = glm::min(lo, p[i]), hi = glm::max(hi, p[i]);
