@@ -7,6 +7,7 @@
 #include <cstring>
 
 #include "core/error.h"
+#include "core/temporary_files.h"
 
 namespace isoforge {
 
@@ -19,10 +20,12 @@ AtomicFile::AtomicFile(std::filesystem::path target) : target_(std::move(target)
         throw IoError(target_.string() + ": cannot create a file in '" + dir.string() + "': " + std::strerror(errno));
     ::fchmod(fd, 0644);
     temp_ = pattern;
+    signalSlot_ = removeOnSignal(pattern);
     file_ = ::fdopen(fd, "wb");
     if (!file_) {
         ::close(fd);
         std::filesystem::remove(temp_);
+        forgetTemporary(signalSlot_);
         throw IoError(target_.string() + ": cannot open temporary file: " + std::strerror(errno));
     }
     std::setvbuf(file_, nullptr, _IOFBF, 1 << 20);
@@ -34,6 +37,7 @@ AtomicFile::~AtomicFile() {
         std::error_code ec;
         std::filesystem::remove(temp_, ec);
     }
+    forgetTemporary(signalSlot_);
 }
 
 void AtomicFile::write(const void* data, std::size_t bytes) {
@@ -49,6 +53,10 @@ void AtomicFile::commit() {
     if (!ok) throw IoError(target_.string() + ": write failed: " + std::strerror(err));
     std::error_code ec;
     std::filesystem::rename(temp_, target_, ec);
+    if (!ec) {
+        forgetTemporary(signalSlot_);
+        signalSlot_ = -1;
+    }
     if (ec) throw IoError(target_.string() + ": cannot rename temporary file onto it: " + ec.message());
     committed_ = true;
 }

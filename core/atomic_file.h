@@ -1,6 +1,7 @@
 #pragma once
 /// @file Atomic output files: write to a temporary file beside the target, then rename.
-/// A reader of the target never sees a partial file, and a failed write leaves no file behind.
+/// A reader of the target never sees a partial file, and a failed write leaves no file behind, nor does
+/// a process stopped by SIGINT, SIGTERM or SIGHUP (core/temporary_files.h).
 
 #include <cstdio>
 #include <filesystem>
@@ -35,6 +36,7 @@ private:
     std::filesystem::path temp_;
     std::FILE* file_ = nullptr;
     bool committed_ = false;
+    int signalSlot_ = -1;
 };
 
 }  // namespace isoforge

@@ -11,6 +11,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/temporary_files.h"
 #include "mesh/records.h"
 #include "mesh/stream_writer.h"
 #include "mpi/agree.h"
@@ -18,6 +19,8 @@
 namespace isoforge::mpi {
 
 namespace {
+
+int temporarySlot = -1;  ///< the collective file being written, removed on SIGTERM
 
 std::string lowerExtension(const std::string& path) {
     std::string e = std::filesystem::path(path).extension().string();
@@ -125,6 +128,8 @@ std::string writeCollective(const std::string& path, const RankPiece& piece, con
     MPI_File file;
     if (MPI_File_open(comm, temporary.c_str(), MPI_MODE_CREATE | MPI_MODE_WRONLY, MPI_INFO_NULL, &file) != MPI_SUCCESS)
         throw IoError(path + ": cannot create '" + temporary + "'");  // collective: every rank sees it
+    // Every rank removes it if mpirun ends the job with SIGTERM (as it does when another rank dies).
+    temporarySlot = removeOnSignal(temporary);
     MPI_File_set_size(file, 0);
 
     Sections out(file, comm, path);
@@ -208,6 +213,8 @@ void finishCollective(const std::string& temporary, const std::string& path, boo
             std::filesystem::remove(temporary, ec);
     }
     MPI_Barrier(comm);
+    forgetTemporary(temporarySlot);
+    temporarySlot = -1;
 }
 
 }  // namespace isoforge::mpi

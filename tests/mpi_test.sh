@@ -69,6 +69,33 @@ fi
 [ -z "$(ls -A "$tmp/ro")" ] && ok || bad "a failed job left files"
 ls -a "$tmp" | grep -q 'mpi-.*tmp' && bad "temporary files left behind" || ok
 
+# A rank killed while the file is written (SIGKILL on entering MPI_File_set_size, through MPI's profiling
+# interface, PMPI): mpirun ends the other ranks with SIGTERM, and they remove the temporary file.
+if command -v mpicc >/dev/null; then
+    cat >"$tmp/killer.c" <<'C'
+#include <mpi.h>
+#include <signal.h>
+#include <stdlib.h>
+int MPI_File_set_size(MPI_File fh, MPI_Offset size) {
+    int rank = 0;
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+    const char* r = getenv("ISOFORGE_KILL_RANK");
+    if (r && atoi(r) == rank) raise(SIGKILL);
+    return PMPI_File_set_size(fh, size);
+}
+C
+    mpicc -shared -fPIC -o "$tmp/killer.so" "$tmp/killer.c" || bad "mpicc could not build the killer"
+    for victim in 0 2; do
+        mkdir -p "$tmp/killed"
+        ISOFORGE_KILL_RANK=$victim run 3 -x ISOFORGE_KILL_RANK -x LD_PRELOAD="$tmp/killer.so" "$mpibin" --quiet mesh \
+            "$tmp/seams.isf" --voxel 0.02 -o "$tmp/killed/x.ply" >"$tmp/out" 2>"$tmp/err"
+        [ $? -ne 0 ] && ok || bad "rank $victim killed: the job did not fail"
+        grep -q "signal 9" "$tmp/err" && ok || { bad "rank $victim killed: not killed where meant"; cat "$tmp/err"; }
+        [ -z "$(ls -A "$tmp/killed")" ] && ok || { bad "rank $victim killed: files left"; ls -a "$tmp/killed"; }
+        rm -rf "$tmp/killed"
+    done
+fi
+
 # One piece per rank and a ParaView index: together the whole mesh (ghost vertices merged), read
 # with VTK's own reader where python3-vtk9 is installed, else checked as XML.
 "$bin" --quiet mesh "$tmp/apart.isf" --voxel 0.01 -o "$tmp/serial.ply"

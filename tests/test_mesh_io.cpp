@@ -6,6 +6,9 @@
 
 #include <gtest/gtest.h>
 
+#include <csignal>
+#include <cstdlib>
+#include "core/atomic_file.h"
 #include "core/error.h"
 #include "mesh/check.h"
 #include "mesh/io.h"
@@ -146,6 +149,61 @@ TEST(MeshIo, FailedWritesLeaveNoFileAndKeepTheOldOne) {
     int files = 0;
     for (auto& e : std::filesystem::directory_iterator(dir)) files += e.is_regular_file();
     EXPECT_EQ(files, 1);  // only keep.ply: no temporary left behind
+    std::filesystem::remove_all(dir);
+}
+
+namespace {
+volatile std::sig_atomic_t stopped = 0;
+int regularFiles(const std::filesystem::path& dir) {
+    int n = 0;
+    for (auto& e : std::filesystem::directory_iterator(dir)) n += e.is_regular_file();
+    return n;
+}
+}  // namespace
+
+TEST(MeshIo, AWriteStoppedBySignalLeavesNoTemporary) {
+    GTEST_FLAG_SET(death_test_style, "threadsafe");               // each child runs this test again from the start
+    const char* given = std::getenv("ISOFORGE_TEST_SIGNAL_DIR");  // the parent's directory, in a child
+    const auto dir = given ? std::filesystem::path(given) : test::scratchDir("meshsignal");
+    if (!given) ::setenv("ISOFORGE_TEST_SIGNAL_DIR", dir.c_str(), 1);
+    // Ctrl-C, kill, or mpirun ending a job: the process ends by the signal, its hidden file is gone.
+    for (int sig : {SIGTERM, SIGINT, SIGHUP}) {
+        EXPECT_EXIT(
+            {
+                AtomicFile f(dir / "a.ply");
+                f.write("partial contents");
+                std::raise(sig);
+            },
+            testing::KilledBySignal(sig), "");
+        EXPECT_EQ(regularFiles(dir), 0) << "signal " << sig;
+    }
+    // A program with its own handler goes on: its handler runs, the file stays until the writer is unwound.
+    EXPECT_EXIT(
+        {
+            std::signal(SIGTERM, [](int) { stopped = 1; });
+            bool present = false;
+            {
+                AtomicFile f(dir / "b.ply");
+                f.write("partial contents");
+                std::raise(SIGTERM);
+                present = std::filesystem::exists(f.temporaryPath());
+            }
+            std::_Exit(stopped && present ? 3 : 4);
+        },
+        testing::ExitedWithCode(3), "");
+    EXPECT_EQ(regularFiles(dir), 0);
+    EXPECT_TRUE(std::filesystem::exists(dir));
+    // A committed file stays whatever comes after.
+    EXPECT_EXIT(
+        {
+            AtomicFile f(dir / "c.ply");
+            f.write("whole");
+            f.commit();
+            std::raise(SIGTERM);
+        },
+        testing::KilledBySignal(SIGTERM), "");
+    EXPECT_EQ(slurp(dir / "c.ply"), "whole");
+    ::unsetenv("ISOFORGE_TEST_SIGNAL_DIR");
     std::filesystem::remove_all(dir);
 }
 
