@@ -21,9 +21,11 @@ glm::vec3 toWorld(const openvdb::math::Transform& xform, const glm::vec3& p) {
 }
 
 /// The field pruned to boxes that come in mesh order, block by block, as sharpen() and the colours ask
-/// for them: each thread keeps the field pruned to the block of 32 voxels around its last box, and
-/// that pruned to the block of 8 voxels (each with a quarter of its size to spare), and prunes the
-/// smallest that holds the box further for it. So the whole tree is bounded once per block rather
+/// for them: each thread keeps the field pruned to the block of 32 voxels holding a box's centre, and
+/// that pruned to the block of 8 voxels (each with a quarter of its size to spare on every side), and
+/// prunes the smallest that holds the box further for it. (By the centre, not the lowest corner: a box
+/// starting near a block's far end spilled out of it, and 4,000 of example024's boxes pruned the
+/// whole tree.) So the whole tree is bounded once per block rather
 /// than once per box (a Menger sponge's 220 cubes took half of its --sharp time, mostly in the
 /// probes of single feature cells). Pruning keeps the values there (implicit/field.h), so which
 /// thread pruned what changes no output.
@@ -40,7 +42,7 @@ public:
         for (std::size_t level = 0; level < block_.size(); ++level) {
             const float size = block_[level], margin = 0.25f * size;
             if (!(size > 0)) break;
-            const glm::vec3 cell = glm::floor(box.min / size);
+            const glm::vec3 cell = glm::floor(box.centre() / size);
             const implicit::Box3 region{cell * size - glm::vec3(margin), (cell + 1.f) * size + glm::vec3(margin)};
             if (!glm::all(glm::greaterThanEqual(box.min, region.min)) ||
                 !glm::all(glm::lessThanEqual(box.max, region.max)))
