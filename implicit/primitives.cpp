@@ -102,15 +102,25 @@ public:
     bool cheapGradient() const override { return true; }
     /// Exact on either side of an edge: outside, towards the nearest point; inside, the nearest face's normal.
     glm::vec3 gradient(const glm::vec3& p) const override {
+        glm::vec3 g(0.f);
+        valueAndGradient(p, g);
+        return g;
+    }
+    /// eval(p) and gradient(p) from one q = |p| - half (the same arithmetic as boxDistance).
+    float valueAndGradient(const glm::vec3& p, glm::vec3& g) const override {
         const glm::vec3 q = glm::abs(p) - half_;
         const glm::vec3 side(p.x < 0 ? -1.f : 1.f, p.y < 0 ? -1.f : 1.f, p.z < 0 ? -1.f : 1.f);
         const glm::vec3 out = glm::max(q, glm::vec3(0.f));
         const float len = glm::length(out);
-        if (len > 0) return side * out / len;
-        const int k = q.x >= q.y && q.x >= q.z ? 0 : (q.y >= q.z ? 1 : 2);
-        glm::vec3 g(0.f);
-        g[k] = side[k];
-        return g;
+        const float inside = std::min(std::max(q.x, std::max(q.y, q.z)), 0.f);
+        if (len > 0) {
+            g = side * out / len;
+        } else {
+            const int k = q.x >= q.y && q.x >= q.z ? 0 : (q.y >= q.z ? 1 : 2);
+            g = glm::vec3(0.f);
+            g[k] = side[k];
+        }
+        return len + inside - r_;
     }
     Box3 bounds() const override { return {-0.5f * size_, 0.5f * size_}; }
     std::string describe() const override {
