@@ -186,7 +186,7 @@ public:
 
 private:
     static constexpr std::size_t kMaxCandidates = 128;
-    static constexpr std::size_t kSplitPoints = 32, kSplitCandidates = kMaxCandidates;
+    static constexpr std::size_t kSplitPoints = 32;
     using Hit = std::pair<Closest, std::uint32_t>;
     struct Node {
         glm::vec3 lo, hi;
@@ -284,7 +284,8 @@ private:
         glm::vec3 lo(kInf), hi(-kInf);
         for (const std::uint32_t i : idx) lo = glm::min(lo, p[i]), hi = glm::max(hi, p[i]);
         const Candidates near = candidates(lo, hi);
-        if (idx.size() > kSplitPoints && near.tri.size() > kSplitCandidates) {
+        const bool few = near.tri.size() <= kMaxCandidates;
+        if (!few && idx.size() > kSplitPoints) {
             const glm::vec3 ext = hi - lo;
             const int axis = ext.x >= ext.y && ext.x >= ext.z ? 0 : (ext.y >= ext.z ? 1 : 2);
             const float mid = 0.5f * (lo[axis] + hi[axis]);
@@ -296,7 +297,6 @@ private:
                 return;
             }
         }
-        const bool few = near.tri.size() <= kMaxCandidates;
         for (const std::uint32_t i : idx) hit[i] = few ? closestAmong(p[i], near) : closest(p[i]);
     }
 

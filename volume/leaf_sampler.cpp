@@ -36,6 +36,7 @@ LeafSampler::LeafSampler(float voxel, float band, bool distance)
       coarseValues_(64),
       missingValues_(512) {
     missing_.reserve(512);
+    for (int k = 0; k < 4; ++k) gap_[k] = voxel * std::sqrt(float(k));
 }
 
 std::span<const float> LeafSampler::sample(const implicit::Field& field, const openvdb::math::Coord& c) {
@@ -64,9 +65,9 @@ std::span<const float> LeafSampler::sample(const implicit::Field& field, const o
             for (int b = 0; b < ny && !known; ++b)
                 for (int d = 0; d < nz && !known; ++d) {
                     const float v = coarseValues_[(ax[a] << 4) | (ay[b] << 2) | az[d]];
-                    const int dx = x - 2 * ax[a], dy = y - 2 * ay[b], dz = z - 2 * az[d];
-                    const float gap = voxel_ * std::sqrt(float(dx * dx + dy * dy + dz * dz));
-                    if (std::abs(v) >= band_ + gap + margin) {  // false for NaN
+                    // Offsets are 0 or 1 voxel per axis: the distance by how many are 1.
+                    const int steps = (x != 2 * ax[a]) + (y != 2 * ay[b]) + (z != 2 * az[d]);
+                    if (std::abs(v) >= band_ + gap_[steps] + margin) {  // false for NaN
                         values_[i] = v < 0.f ? -band_ : band_;
                         known = true;
                     }

@@ -28,6 +28,7 @@ public:
 
 private:
     float voxel_, band_;
+    float gap_[4];  ///< from a point to a coarse neighbour 0, 1, 2 or 3 axis steps away (voxel * sqrt(k))
     bool distance_;
     std::vector<glm::vec3> points_, coarsePoints_;
     std::vector<float> values_, coarseValues_, missingValues_;
