@@ -1,7 +1,8 @@
 /// @file Polyhedra as exact signed distance fields. Distance: closest triangle through a bounding
 /// volume hierarchy (O(log n) per point). Sign: for a closed, edge-manifold mesh, the angle-weighted
 /// pseudonormal of the closest feature (Baerentzen and Aanaes 2005), after making the orientation
-/// consistent and outward; otherwise the generalized winding number (exact, O(n) per point).
+/// consistent and outward; otherwise the winding number of the mesh closed by caps (a ray's signed
+/// crossings, csg/ray_winding.h, or where no ray passes clear, the generalized winding number).
 
 #include <algorithm>
 #include <cmath>
@@ -17,6 +18,7 @@
 #include <glm/geometric.hpp>
 
 #include "core/fast_atan2.h"
+#include "csg/ray_winding.h"
 #include "csg/shapes.h"
 #include "mesh/self_intersections.h"
 #include "mesh/triangulate.h"
@@ -188,11 +190,7 @@ private:
     static constexpr std::size_t kMaxCandidates = 128;
     static constexpr std::size_t kSplitPoints = 32;
     using Hit = std::pair<Closest, std::uint32_t>;
-    struct Node {
-        glm::vec3 lo, hi;
-        std::uint32_t first,
-            count;  ///< leaf: triangles [first, first + count); inner: count 0, children first, first+1
-    };
+    using Node = MeshBvhNode;
 
     void buildBvh() {
         order_.resize(t_.size());
@@ -379,7 +377,23 @@ private:
         const glm::vec3 d = q - c.point;
         const float len = glm::length(d);
         if (len > 1e-6f * (1.f + glm::length(box_.size()))) return (in() ? -1.f : 1.f) * d / len;
-        return pseudonormals_ ? faceNormal_[tri] : Field::gradient(q);  // on the surface
+        return pseudonormals_ ? faceNormal_[tri] : windingGradient(q, tri);  // on the surface
+    }
+    /// On the surface of a mesh signed by its winding number: the closest face's normal, pointing from the
+    /// side the winding number counts inside to the side it counts outside, one step of the central
+    /// differences (Field::gradient) away on each side. Two winding numbers instead of six closest-triangle
+    /// searches and winding numbers; where both sides agree (an open edge, a face inside the solid), the
+    /// central differences.
+    glm::vec3 windingGradient(const glm::vec3& q, std::uint32_t tri) const {
+        const glm::uvec3& t = t_[tri];
+        const glm::vec3 a = glm::cross(p_[t.y] - p_[t.x], p_[t.z] - p_[t.x]);
+        const float area2 = glm::length(a);
+        if (!(area2 > 0.f)) return Field::gradient(q);
+        const glm::vec3 n = a / area2;
+        const float h = std::max(1e-4f, 1e-4f * glm::length(q));
+        const bool front = windingNumberInside(q + h * n), back = windingNumberInside(q - h * n);
+        if (front == back) return Field::gradient(q);
+        return front ? -n : n;
     }
     /// A point on the surface that is inside (see inside()) is the least negative normal float, not -0: marching
     /// cubes counts 0 as outside, and the value stays negative through scales and transforms.
@@ -434,10 +448,18 @@ private:
             winding += solidAngle(glm::dvec3(p_[t.x] - q), glm::dvec3(p_[t.y] - q), glm::dvec3(p_[t.z] - q));
         return std::abs(winding) > 2.0 * M_PI;
     }
+    /// |Winding number| >= 1. The chain of triangles is closed (capBoundary), so the winding number is the
+    /// signed count of a ray's crossings wherever the ray passes clear of edges, vertices and planes: a
+    /// few nodes and triangles (csg/ray_winding.h) instead of the solid angle of every triangle near q.
+    /// Where three rays are refused, by the solid angles.
+    bool windingNumberInside(const glm::vec3& q) const {
+        if (const auto in = insideByRays({nodes_, order_, t_, p_}, q)) return *in;
+        return solidAngleInside(q);
+    }
     /// Generalized winding number > 1/2, hierarchically (Barill et al. 2018, first order): a node
     /// far from q (distance > 2 radii) counts as the dipole of its area-weighted normals; near
     /// nodes are opened, leaves summed exactly (van Oosterom and Strackee).
-    bool windingNumberInside(const glm::vec3& q) const {
+    bool solidAngleInside(const glm::vec3& q) const {
         double omega = 0;
         std::uint32_t stack[64];
         int top = 0;
