@@ -15,19 +15,6 @@
 namespace isoforge {
 namespace {
 
-/// The winding number by the solid angle of every triangle (van Oosterom and Strackee, exact in double).
-double solidAngleWinding(const mesh::TriMesh& m, const glm::dvec3& q) {
-    double omega = 0;
-    for (const auto& t : m.triangles) {
-        const glm::dvec3 a = glm::dvec3(m.positions[t.x]) - q, b = glm::dvec3(m.positions[t.y]) - q,
-                         c = glm::dvec3(m.positions[t.z]) - q;
-        const double la = glm::length(a), lb = glm::length(b), lc = glm::length(c);
-        omega += 2.0 * std::atan2(glm::dot(a, glm::cross(b, c)),
-                                  la * lb * lc + glm::dot(a, b) * lc + glm::dot(b, c) * la + glm::dot(c, a) * lb);
-    }
-    return omega / (4.0 * M_PI);
-}
-
 /// A hierarchy of two leaves under one root, split by triangle index: enough to exercise the traversal.
 struct TwoLeafBvh {
     std::vector<csg::MeshBvhNode> nodes;
@@ -66,7 +53,7 @@ TEST(RayWinding, CrossingsCountTheSolidAngleWindingNumber) {
             // j = 0: on the vertex's own plane along x (a grid sample lying on a vertex's coordinate).
             glm::vec3 q = cow.positions[v] + glm::vec3(j == 0 ? 0.f : jitter(rng), jitter(rng), jitter(rng));
             const auto in = csg::insideByRays(bvh.view(cow), q);
-            const double w = solidAngleWinding(cow, glm::dvec3(q));
+            const double w = test::windingNumber(cow, glm::dvec3(q));
             if (!in) {
                 ++refused;
                 continue;

@@ -1,8 +1,10 @@
 #pragma once
+#include <cmath>
 #include <filesystem>
 #include <string>
 
 #include <gtest/gtest.h>
+#include <glm/geometric.hpp>
 
 #include "mesh/check.h"
 
@@ -49,6 +51,20 @@ inline mesh::MeshReport expectClosedSurface(const mesh::TriMesh& m, const std::s
     EXPECT_GT(r.volume, 0.0) << what;
     EXPECT_TRUE(r.genus().has_value()) << what;
     return r;
+}
+
+/// The winding number of a mesh at q, from the solid angle of every triangle (van Oosterom and Strackee, in
+/// double): the reference the library's faster signs are checked against.
+inline double windingNumber(const mesh::TriMesh& m, const glm::dvec3& q) {
+    double omega = 0;
+    for (const glm::uvec3& t : m.triangles) {
+        const glm::dvec3 a = glm::dvec3(m.positions[t.x]) - q, b = glm::dvec3(m.positions[t.y]) - q,
+                         c = glm::dvec3(m.positions[t.z]) - q;
+        const double la = glm::length(a), lb = glm::length(b), lc = glm::length(c);
+        omega += 2 * std::atan2(glm::dot(a, glm::cross(b, c)),
+                                la * lb * lc + glm::dot(a, b) * lc + glm::dot(b, c) * la + glm::dot(c, a) * lb);
+    }
+    return omega / (4 * M_PI);
 }
 
 }  // namespace isoforge::test

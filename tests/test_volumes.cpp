@@ -231,17 +231,6 @@ TEST(Volumes, SharedLabelSurfacesNeitherOverlapNorLeaveGaps) {
     }
     v.indexToWorld = glm::dmat4(glm::dvec4(1, 0, 0, 0), glm::dvec4(0, 1.5, 0, 0), glm::dvec4(0, 0, -0.8, 0),
                                 glm::dvec4(3, 2, 1, 1));  // anisotropic and mirrored
-    auto winding = [](const mesh::TriMesh& m, const glm::dvec3& q) {
-        double omega = 0;
-        for (const glm::uvec3& t : m.triangles) {
-            const glm::dvec3 a = glm::dvec3(m.positions[t.x]) - q, b = glm::dvec3(m.positions[t.y]) - q,
-                             c = glm::dvec3(m.positions[t.z]) - q;
-            const double la = glm::length(a), lb = glm::length(b), lc = glm::length(c);
-            omega += 2 * std::atan2(glm::dot(a, glm::cross(b, c)),
-                                    la * lb * lc + glm::dot(a, b) * lc + glm::dot(b, c) * la + glm::dot(c, a) * lb);
-        }
-        return omega / (4 * M_PI);
-    };
     for (const auto method : {volume::LabelMethod::Shared, volume::LabelMethod::MarchingCubes}) {
         const bool shared = method == volume::LabelMethod::Shared;
         const auto surfaces = volume::labelSurfaces(v, nullptr, method);
@@ -254,7 +243,7 @@ TEST(Volumes, SharedLabelSurfacesNeitherOverlapNorLeaveGaps) {
                                  double((state >> 20) % 1000) / 1000 * 8);
             const glm::dvec3 q(v.indexToWorld * glm::dvec4(idx, 1.0));
             int inside = 0;
-            for (const auto& s : surfaces) inside += winding(s.mesh, q) > 0.5;
+            for (const auto& s : surfaces) inside += test::windingNumber(s.mesh, q) > 0.5;
             overlaps += inside > 1;
             // A point in a cell whose eight voxels are all labelled is away from the background: in a label.
             bool labelled = true;
@@ -273,7 +262,8 @@ TEST(Volumes, SharedLabelSurfacesNeitherOverlapNorLeaveGaps) {
                         const int l = int(v.at(i, j, k));
                         if (l == 0) continue;
                         const glm::dvec3 q(v.indexToWorld * glm::dvec4(double(i), double(j), double(k), 1.0));
-                        EXPECT_GT(winding(surfaces[std::size_t(l - 1)].mesh, q), 0.5) << i << " " << j << " " << k;
+                        EXPECT_GT(test::windingNumber(surfaces[std::size_t(l - 1)].mesh, q), 0.5)
+                            << i << " " << j << " " << k;
                     }
         } else {
             EXPECT_GT(overlaps + gaps, 0u) << "independent marching cubes was expected to leave gaps somewhere";
