@@ -60,12 +60,9 @@ std::optional<int> windingAlongRay(const MeshBvhView& bvh, const glm::dvec3& q, 
             const double det = glm::dot(e1, p);
             const double area = glm::length(glm::cross(e1, e2));
             if (!(area > 0)) continue;  // a degenerate triangle bounds nothing
+            // Along the triangle's plane, or within rounding of it: where it would cross is too close to call.
+            if (std::abs(det) <= 1e-9 * area) return {};
             const glm::dvec3 s = q - a;
-            if (std::abs(det) <= 1e-9 * area) {
-                // The ray runs in the triangle's plane: it crosses nothing there, unless it lies in the plane.
-                if (std::abs(glm::dot(s, glm::cross(e1, e2))) <= 1e-9 * area * (glm::length(s) + 1e-30)) return {};
-                continue;
-            }
             const double u = glm::dot(s, p) / det;
             const glm::dvec3 qv = glm::cross(s, e1);
             const double v = glm::dot(dir, qv) / det;

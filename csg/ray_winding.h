@@ -1,8 +1,8 @@
 /// @file The winding number of a closed chain of triangles at a point, counted along a ray: the signed
 /// crossings of a ray from the point to infinity. Where the generalized winding number sums the solid
 /// angle of every triangle near the point (hundreds, on the surface), a ray meets a few nodes of the
-/// hierarchy and a few triangles. Exact only off edges, vertices and the triangles' planes: a ray that
-/// passes within rounding of one is refused, and the caller tries another ray or the solid angles.
+/// hierarchy and a few triangles. Exact only off edges and vertices: a ray that passes within rounding of
+/// one, or runs along a triangle's plane, is refused, and the caller tries another ray or the solid angles.
 #pragma once
 
 #include <cstdint>
@@ -29,7 +29,8 @@ struct MeshBvhView {
 
 /// The sum over the triangles that the ray q + t dir (t > 0) crosses of +1 or -1 by the side it leaves
 /// through (the winding number of q when the triangles close up, its sign a convention); nothing when
-/// the ray passes within rounding of an edge, a vertex or a triangle's plane, or when q is on a triangle.
+/// the ray passes within rounding of an edge or a vertex, runs parallel to a triangle (within rounding) of a
+/// leaf it visits, or starts on a triangle.
 std::optional<int> windingAlongRay(const MeshBvhView& bvh, const glm::dvec3& q, const glm::dvec3& dir);
 
 /// Whether |winding number| >= 1 at q, from up to three fixed rays; nothing when all three are refused.
