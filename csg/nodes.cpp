@@ -115,6 +115,10 @@ public:
         return children_[winner(p)]->materialAt(p);
     }
     bool hasMaterial() const override { return material_; }
+    bool translucent(bool inherited) const override {
+        return std::all_of(children_.begin(), children_.end(),
+                           [&](const FieldPtr& c) { return c->translucent(inherited); });
+    }
     /// The gradient of the child that decides the value (negated for a difference's subtrahends):
     /// exact on either side of a crease, where central differences would mix the two. Smooth blends
     /// take central differences.
@@ -204,6 +208,7 @@ public:
         return inner ? inner : m_.get();
     }
     bool hasMaterial() const override { return true; }
+    bool translucent(bool) const override { return child_->translucent(m_->color.a < 1.f); }
     glm::vec3 gradient(const glm::vec3& p) const override { return child_->gradient(p); }
     float valueAndGradient(const glm::vec3& p, glm::vec3& g) const override { return child_->valueAndGradient(p, g); }
     bool cheapGradient() const override { return child_->cheapGradient(); }

@@ -150,6 +150,7 @@ public:
     std::string describe() const override { return "linear_extrude(" + child_->describe() + ")"; }
     const implicit::Material* materialAt(const glm::vec3& p) const override { return child_->materialAt(p); }
     bool hasMaterial() const override { return child_->hasMaterial(); }
+    bool translucent(bool inherited) const override { return child_->translucent(inherited); }
 
 private:
     FieldPtr child_;
@@ -262,6 +263,7 @@ public:
     std::string describe() const override { return "rotate_extrude(" + child_->describe() + ")"; }
     const implicit::Material* materialAt(const glm::vec3& p) const override { return child_->materialAt(p); }
     bool hasMaterial() const override { return child_->hasMaterial(); }
+    bool translucent(bool inherited) const override { return child_->translucent(inherited); }
 
 private:
     /// The profile at radius r. Points on the axis are taken a hair off it: a profile that touches

@@ -88,6 +88,11 @@ public:
     /// False when materialAt() is nullptr everywhere (no colour or material node anywhere in the
     /// tree), so that callers can skip asking it per vertex or triangle.
     virtual bool hasMaterial() const { return false; }
+    /// True when every material materialAt() can give is translucent (alpha < 1), a point without a
+    /// material of its own taking `inherited`'s (true: a translucent one): shadow rays pass through
+    /// such a surface. Nodes that pass materialAt() on or pick among children forward it; the default
+    /// is only sure where no material is given at all.
+    virtual bool translucent(bool inherited) const { return inherited && !hasMaterial(); }
     /// The colour (RGBA) of materialAt(p); alpha 0 where no material is given.
     glm::vec4 colorAt(const glm::vec3& p) const {
         const Material* m = materialAt(p);

@@ -355,6 +355,7 @@ public:
     }
     bool cheapGradient() const override { return child_->cheapGradient(); }
     bool hasMaterial() const override { return child_->hasMaterial(); }
+    bool translucent(bool inherited) const override { return child_->translucent(inherited); }
 
 private:
     glm::vec3 local(const glm::vec3& p) const { return glm::vec3(inv_ * glm::dvec4(p, 1.0)); }
@@ -433,6 +434,7 @@ public:
 
     const implicit::Material* materialAt(const glm::vec3& p) const override { return child_->materialAt(p); }
     bool hasMaterial() const override { return child_->hasMaterial(); }
+    bool translucent(bool inherited) const override { return child_->translucent(inherited); }
 
 private:
     float apply(float v) const { return (shell_ ? std::abs(v) : v) - r_; }
@@ -465,6 +467,7 @@ public:
     std::string describe() const override { return child_->describe(); }
     const implicit::Material* materialAt(const glm::vec3& p) const override { return child_->materialAt(p); }
     bool hasMaterial() const override { return child_->hasMaterial(); }
+    bool translucent(bool inherited) const override { return child_->translucent(inherited); }
 
 private:
     float boxValue(const glm::vec3& p) const { return boxDistance(p - box_.centre(), 0.5f * box_.size()); }

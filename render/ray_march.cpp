@@ -9,6 +9,7 @@
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
 
+#include "render/field_grid.h"
 #include "render/shading.h"
 
 namespace isoforge::render {
@@ -35,35 +36,50 @@ std::optional<std::pair<float, float>> clipRay(const detail::Ray& r, const impli
     return std::make_pair(t0, t1);
 }
 
+/// How finely a ray is marched: steps of a quarter of a pixel's footprint at t (t from the eye for
+/// camera rays), no shorter than the scene's rounding.
+struct Precision {
+    float minStep;  ///< the smallest step (the scene's rounding)
+    float refine;   ///< crossings are found to within this many steps
+};
+
 /// Finds the first zero crossing of a field along a ray.
 class Marcher {
 public:
-    Marcher(const implicit::Field& f, const detail::RayGenerator& rays, float minStep)
-        : f_(f), rays_(rays), distance_(f.isDistance()), minStep_(minStep) {}
+    Marcher(const implicit::Field& f, const detail::RayGenerator& rays, const Precision& p)
+        : f_(f), rays_(rays), distance_(f.isDistance()), p_(p) {}
 
     /// First t in (ta, tb] where the sign differs from the sign at ta; nullopt if none.
     std::optional<float> first(const detail::Ray& r, float ta, float tb) const {
         if (!(tb > ta)) return std::nullopt;
-        const float va = value(r, ta);
-        return distance_ ? sphereTrace(r, ta, tb, va) : subdivide(r, ta, tb, va, 0);
+        float vb;
+        return from(r, ta, tb, value(r, ta), vb);
+    }
+    /// The same, given the value at ta; `vb` is the value at tb where the march took it, else NaN.
+    std::optional<float> from(const detail::Ray& r, float ta, float tb, float va, float& vb) const {
+        vb = std::numeric_limits<float>::quiet_NaN();
+        if (!(tb > ta)) return std::nullopt;
+        return distance_ ? sphereTrace(r, ta, tb, va, vb) : subdivide(r, ta, tb, va, 0);
     }
 
 private:
     float value(const detail::Ray& r, float t) const { return f_.value(r.origin + t * r.dir); }
-    float eps(float t) const { return std::max(0.25f * rays_.pixelSize(t), minStep_); }
+    float eps(float t) const { return std::max(0.25f * rays_.pixelSize(t), p_.minStep); }
 
-    std::optional<float> sphereTrace(const detail::Ray& r, float ta, float tb, float va) const {
+    std::optional<float> sphereTrace(const detail::Ray& r, float ta, float tb, float va, float& vb) const {
         const float side = va < 0 ? -1.f : 1.f;
         float t = ta, v = va;
         for (int i = 0; i < 2048 && t <= tb; ++i) {
-            const float d = side * v;
-            if (d < 0) return refine(r, t - eps(t), t, side);  // stepped over: the field is not exact there
             // Close to the surface: a hit only where the sign changes within a small step, so that
             // rays grazing the silhouette pass by (exact silhouettes, no dilation by the epsilon).
-            const float tn = t + std::max(d, 0.5f * eps(t));
-            v = value(r, std::min(tn, tb));
-            if (side * v < 0) return refine(r, t, std::min(tn, tb), side);
-            t = tn;
+            const float tn = std::min(t + std::max(side * v, 0.5f * eps(t)), tb);
+            const float vn = value(r, tn);
+            if (side * vn < 0) return refine(f_, r, t, tn, side, v, vn);
+            if (tn >= tb) {
+                vb = vn;
+                break;
+            }
+            t = tn, v = vn;
         }
         return std::nullopt;
     }
@@ -83,36 +99,102 @@ private:
         if (iv.lo > 0.f || iv.hi < 0.f) return std::nullopt;
         if (tb - ta <= eps(tb) || depth >= 48) {
             const float vb = g->value(r.origin + tb * r.dir);
-            if ((va < 0) != (vb < 0)) return refine(*g, r, ta, tb, va < 0 ? -1.f : 1.f);
+            if ((va < 0) != (vb < 0)) return refine(*g, r, ta, tb, va < 0 ? -1.f : 1.f, va, vb);
             return std::nullopt;
         }
         const float tm = 0.5f * (ta + tb), vm = g->value(r.origin + tm * r.dir);
         if ((va < 0) != (vm < 0)) {
             if (auto h = subdivide(r, ta, tm, va, depth + 1, g)) return h;
-            return refine(*g, r, ta, tm, va < 0 ? -1.f : 1.f);  // a crossing the bound-driven search missed
+            return refine(*g, r, ta, tm, va < 0 ? -1.f : 1.f, va, vm);  // a crossing the bound-driven search missed
         }
         if (auto h = subdivide(r, ta, tm, va, depth + 1, g)) return h;
         return subdivide(r, tm, tb, vm, depth + 1, g);
     }
 
-    /// Bisection between a point on the starting side (ta) and one past the surface (tb).
-    float refine(const implicit::Field& g, const detail::Ray& r, float ta, float tb, float side) const {
-        for (int i = 0; i < 24 && tb - ta > 1e-7f * (1.f + tb); ++i) {
-            const float tm = 0.5f * (ta + tb);
-            if (side * g.value(r.origin + tm * r.dir) >= 0)
-                ta = tm;
-            else
-                tb = tm;
+    /// Between a point on the starting side (ta, value va) and one past the surface (tb, vb): the
+    /// Illinois variant of regula falsi (a bracket kept, the end that stays put has its value
+    /// halved), down to `refine` marching steps or to float resolution.
+    float refine(const implicit::Field& g, const detail::Ray& r, float ta, float tb, float side, float va,
+                 float vb) const {
+        float fa = side * va, fb = side * vb;  // fa >= 0 > fb
+        const float tol = std::max(p_.refine * eps(tb), 1e-7f * (1.f + std::abs(tb)));
+        int last = 0;
+        for (int i = 0; i < 48 && tb - ta > tol && fa > 0.f; ++i) {
+            float tm = ta + fa / (fa - fb) * (tb - ta);
+            if (!(tm > ta && tm < tb)) tm = 0.5f * (ta + tb);
+            const float fm = side * g.value(r.origin + tm * r.dir);
+            if (fm >= 0.f) {
+                ta = tm, fa = fm;
+                if (last > 0) fb *= 0.5f;
+                last = 1;
+            } else {
+                tb = tm, fb = fm;
+                if (last < 0) fa *= 0.5f;
+                last = -1;
+            }
         }
         return ta;  // the last point on the starting side: shading offsets from there stay outside
     }
-    float refine(const detail::Ray& r, float ta, float tb, float side) const { return refine(f_, r, ta, tb, side); }
 
     const implicit::Field& f_;
     const detail::RayGenerator& rays_;
     bool distance_;
-    float minStep_;
+    Precision p_;
 };
+
+/// A crossing along a ray and the field that holds there (simplified to its cell).
+struct Hit {
+    float t;
+    const implicit::Field* field;
+};
+
+/// How close to the surface a crossing is found, in marching steps (a quarter pixel): where camera
+/// rays hit, the surface is shaded; a shadow ray needs only the surface it met (and its material).
+constexpr float kPrimaryRefine = 0.01f, kShadowRefine = 0.25f;
+
+/// Cells along the longest side of the region in the grid rays walk (render/field_grid.h).
+constexpr int kGridCells = 64;
+
+/// The first t in (ta, tb] where the sign differs from the sign at ta, walking the grid: cells whose
+/// bound excludes 0 are skipped, the others marched with their own field.
+std::optional<Hit> firstInGrid(const detail::FieldGrid& grid, const implicit::Field& whole, const detail::Ray& r,
+                               float ta, float tb, const detail::RayGenerator& rays, const Precision& precision,
+                               bool opaqueOnly) {
+    float side = 0.f;
+    float carry = std::numeric_limits<float>::quiet_NaN();  // the value where the last cell's march ended
+    std::optional<Hit> hit;
+    grid.walk(r.origin, r.dir, ta, tb, [&](std::int32_t code, float c0, float c1) {
+        if (code < 0) {
+            const float s = code == detail::FieldGrid::kOutside ? 1.f : -1.f;
+            if (side == 0.f) side = s;
+            carry = std::numeric_limits<float>::quiet_NaN();
+            if (s == side) return false;
+            hit = Hit{c0, &whole};  // the sign changed on the cell's face
+            return true;
+        }
+        if (opaqueOnly && grid.seeThrough(code)) {  // what happens in there does not matter
+            side = 0.f;
+            carry = std::numeric_limits<float>::quiet_NaN();
+            return false;
+        }
+        const implicit::Field& f = grid.field(code);
+        // Cells share their faces and every cell's field equals the whole field in its cell: where the
+        // last cell's march ended, this one starts with the same value.
+        const float va = std::isnan(carry) ? f.value(r.origin + c0 * r.dir) : carry;
+        const float s = va < 0.f ? -1.f : 1.f;
+        if (side == 0.f) side = s;
+        if (s != side) {
+            hit = Hit{c0, &f};
+            return true;
+        }
+        if (auto t = Marcher(f, rays, precision).from(r, c0, c1, va, carry)) {
+            hit = Hit{*t, &f};
+            return true;
+        }
+        return false;
+    });
+    return hit;
+}
 
 }  // namespace
 
@@ -133,128 +215,76 @@ Frame marchField(const implicit::FieldPtr& field, const implicit::Box3& bounds, 
     const implicit::Box3 region = finite ? bounds.expanded(1e-3f * sceneSize + 1e-5f * maxCoord) : bounds;
     const float eps = 1e-5f * sceneSize;
     const float aoReach = o.aoDistance > 0 ? o.aoDistance : 0.05f * sceneSize;
-    // Per 16x16 tile: the field simplified to the box its rays cross (a thin frustum through the
-    // scene), so each tile's rays evaluate only the objects they can meet; and simplified to the box
-    // that the secondary rays of the tile's hits can cross (shadowField).
-    const int tilesX = (o.width + detail::kTile - 1) / detail::kTile;
-    const int tilesY = (o.height + detail::kTile - 1) / detail::kTile;
-    std::vector<implicit::FieldPtr> tileField(static_cast<std::size_t>(tilesX) * static_cast<std::size_t>(tilesY));
-    std::vector<implicit::FieldPtr> shadowField(tileField.size());
-    // The region's nearest and farthest depths along the view, and its farthest point from the eye.
-    float dmin = kInf, dmax = 0.f, farthest = 0.f;
-    for (int c = 0; c < 8; ++c) {
-        const glm::vec3 q(c & 1 ? region.max.x : region.min.x, c & 2 ? region.max.y : region.min.y,
-                          c & 4 ? region.max.z : region.min.z);
-        const float d = glm::dot(q - look.camera.eye, rays.forward());
-        dmin = std::min(dmin, d);
-        dmax = std::max(dmax, d);
-        if (finite) farthest = std::max(farthest, glm::length(q - look.camera.eye));
-    }
-    dmin = std::max(dmin, 0.f);
-    // Secondary rays start at most this far from a hit (half a pixel at the farthest point of the
-    // region, see `origin` below), and go no farther than the region's diagonal.
-    const float secondaryOffset = std::max(2.f * eps, 0.5f * rays.pixelSize(farthest));
-    const float secondaryMargin = 2.f * secondaryOffset + (o.aoSamples > 0 ? aoReach : 0.f);
-    const float across = finite ? glm::length(region.size()) : 0.f;
-    tbb::parallel_for(std::size_t{0}, tileField.size(), [&](std::size_t k) {
-        const int x0 = int(k % std::size_t(tilesX)) * detail::kTile, y0 = int(k / std::size_t(tilesX)) * detail::kTile;
-        const float x1 = float(std::min(x0 + detail::kTile, o.width)),
-                    y1 = float(std::min(y0 + detail::kTile, o.height));
-        // The frustum slab between the region's nearest and farthest depths is inside the hull of the
-        // four corner rays at those two depths.
-        implicit::Box3 box;
-        for (const glm::vec2 c :
-             {glm::vec2(float(x0), float(y0)), glm::vec2(x1, float(y0)), glm::vec2(float(x0), y1), glm::vec2(x1, y1)}) {
-            const detail::Ray r = rays(c.x, c.y);
-            const float cosine = glm::dot(r.dir, rays.forward());
-            for (float d : {dmin, dmax}) {
-                const glm::vec3 p = r.origin + r.dir * (d / cosine);
-                box = box.unite(implicit::Box3{p, p});
-            }
+    // The field cut into cells, each classified by its bound or simplified to itself: every ray,
+    // primary or secondary, walks the cells and marches only where the surface may be, with the
+    // few nodes that matter there.
+    const detail::FieldGrid grid = finite ? detail::FieldGrid(field, region, kGridCells) : detail::FieldGrid();
+    const double setupSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    // The first crossing in [ta, tb] (the sign differs from the sign at ta) and the field that
+    // holds there (for the normal and the material).
+    auto firstHit = [&](const detail::Ray& r, float ta, float tb, bool shadow) -> std::optional<Hit> {
+        const Precision precision{eps, shadow ? kShadowRefine : kPrimaryRefine};
+        if (!finite) {
+            if (auto t = Marcher(*field, rays, precision).first(r, ta, tb)) return Hit{*t, field.get()};
+            return std::nullopt;
         }
-        box = box.intersect(region);
-        tileField[k] = box.isEmpty() || !box.isBounded() ? field : implicit::simplified(field, box);
-        // The tile's hits lie in `box`; their shadow rays start within secondaryMargin of it and run
-        // towards a light: a directional one until they leave the region (the box swept along the
-        // direction, whose bounding box is that of the box and its far copy), a point light up to it.
-        shadowField[k] = field;
-        if (!box.isEmpty() && box.isBounded()) {
-            const implicit::Box3 from = box.expanded(secondaryMargin);
-            implicit::Box3 swept = from;
-            for (std::size_t i = 0; i < lights.size(); ++i)
-                if (lights[i].point) {
-                    swept = swept.unite(implicit::Box3{lights[i].vector, lights[i].vector});
-                } else {
-                    const glm::vec3 far = lights.towards(i, glm::vec3(0.f)) * across;
-                    swept = swept.unite(implicit::Box3{from.min + far, from.max + far});
-                }
-            swept = swept.intersect(region);
-            if (!swept.isEmpty()) shadowField[k] = implicit::simplified(field, swept);
-        }
-    });
+        return firstInGrid(grid, *field, r, ta, tb, rays, precision, shadow);
+    };
     const implicit::Material plain;
     const bool inside = !region.isEmpty() && field->value(look.camera.eye) < 0.f;
 
     // Shadows come from opaque surfaces only: translucent layers let light through, as on the
     // Embree path (whose shadow rays see only the opaque objects).
-    auto blockedIn = [&](const implicit::Field& f, const glm::vec3& origin, const glm::vec3& d, float tmax) {
+    auto blocked = [&](const glm::vec3& origin, const glm::vec3& d, float tmax) {
         const detail::Ray r{origin, d};
         const auto span = clipRay(r, region);
         if (!span) return false;
         const float tb = std::min(span->second, tmax);
-        const Marcher march(f, rays, eps);
         float t = span->first;
         for (int crossing = 0; crossing < 64; ++crossing) {
-            const auto hit = march.first(r, t, tb);
+            const auto hit = firstHit(r, t, tb, true);
             if (!hit) return false;
-            const implicit::Material* m = f.materialAt(r.origin + *hit * r.dir);
+            const implicit::Material* m = hit->field->materialAt(r.origin + hit->t * r.dir);
             if (!m || m->color.a >= 1.f) return true;
-            t = *hit + 2.f * std::max(eps, 0.25f * rays.pixelSize(*hit));  // past the translucent surface
+            t = hit->t + 2.f * std::max(eps, 0.25f * rays.pixelSize(hit->t));  // past the translucent surface
         }
         return false;
     };
     auto trace = [&](const detail::Ray& ray, std::size_t pix, std::size_t s, float py) {
-        const std::size_t px = pix % std::size_t(o.width), py0 = pix / std::size_t(o.width);
-        const std::size_t tile = (py0 / detail::kTile) * std::size_t(tilesX) + px / detail::kTile;
-        const implicit::FieldPtr& tf = tileField[tile];
-        const implicit::Field& sf = *shadowField[tile];
-        auto blocked = [&](const glm::vec3& origin, const glm::vec3& d, float tmax) {
-            return blockedIn(sf, origin, d, tmax);
-        };
-        const Marcher tileMarch(*tf, rays, eps);
         detail::SampleResult out;
         glm::vec3 acc(0.f);
         float transmit = 1.f;
         const auto span = clipRay(ray, region);
         float t = span ? span->first : 0.f;
         for (int layer = 0; span && layer < 16 && transmit > 0.004f; ++layer) {
-            const auto hit = tileMarch.first(ray, t, span->second);
+            const auto hit = firstHit(ray, t, span->second, false);
             if (!hit) break;
+            const implicit::Field& tf = *hit->field;
             detail::Surface surf;
-            surf.position = ray.origin + *hit * ray.dir;
-            glm::vec3 n = tf->gradient(surf.position);
+            surf.position = ray.origin + hit->t * ray.dir;
+            glm::vec3 n = tf.gradient(surf.position);
             const float nl = glm::length(n);
             n = nl > 0 ? n / nl : -ray.dir;
             if (glm::dot(n, ray.dir) > 0) n = -n;
             surf.normal = n;
-            const implicit::Material* m = tf->materialAt(surf.position);
+            const implicit::Material* m = tf.materialAt(surf.position);
             if (!m) m = &plain;
             surf.albedo = srgbToLinear(glm::vec3(m->color));
             surf.setMaterial(*m);
-            const glm::vec3 origin = surf.position + n * std::max(2.f * eps, 0.5f * rays.pixelSize(*hit));
+            const glm::vec3 origin = surf.position + n * std::max(2.f * eps, 0.5f * rays.pixelSize(hit->t));
             acc += transmit * surf.opacity *
                    detail::shadeHit(surf, origin, ray.dir, look, lights, o, aoReach,
                                     static_cast<std::uint32_t>(pix * 64u + s * 16u + static_cast<std::size_t>(layer)),
                                     blocked);
             if (!out.hit) {
                 out.hit = true;
-                out.depth = *hit;
+                out.depth = hit->t;
                 out.normal = n;
                 out.id = 1.f;
             }
             transmit *= 1.f - surf.opacity;
             // Past the surface: step to the other side and look for the next crossing.
-            t = *hit + 2.f * std::max(eps, 0.25f * rays.pixelSize(*hit));
+            t = hit->t + 2.f * std::max(eps, 0.25f * rays.pixelSize(hit->t));
         }
         out.color = acc + transmit * background.at(py, o.height);
         return out;
@@ -263,6 +293,7 @@ Frame marchField(const implicit::FieldPtr& field, const implicit::Box3& bounds, 
     Frame f = detail::renderTiles(look, o, trace, hitPixels);
     if (stats) {
         stats->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        stats->setupSeconds = setupSeconds;
         stats->primaryRays = f.pixels() * static_cast<std::size_t>(std::max(o.spp, 1));
         stats->hitPixels = hitPixels;
         if (inside) stats->warnings.push_back("the camera is inside an object: the view shows its inside surface");

@@ -186,8 +186,10 @@ private:
 };
 
 TEST(Renderers, MarchedShadowsAreThoseOfTheWholeField) {
-    // Shadow and ambient-occlusion rays march the field simplified per tile to the tile's box swept
-    // towards the lights. A box too small would drop casters: compare with the field never simplified,
+    // Shadow and ambient-occlusion rays march the field simplified to each cell of the grid they walk
+    // (render/field_grid.h), and skip cells where every surface is translucent. A cell that dropped a
+    // caster would lose shadows: compare with the field never simplified (whose cells all hold the
+    // whole field, glass included, so its shadow rays find the glass and pass it by its material),
     // under a directional and a point light, with and without ambient occlusion. The blobby makes the
     // field non-distance (interval subdivision).
     const csg::Scene s = csg::parseScene(R"(
