@@ -208,7 +208,70 @@ Interval Tape::eval(const Box3& box) const {
     return r;
 }
 
-std::shared_ptr<const Tape> Tape::simplify(const Box3& box) const {
+namespace {
+/// Nested mins (or maxes) whose inner nodes are used only by their parent are one n-ary min over
+/// their leaves: a leaf whose lowest value exceeds the lowest highest value among all the leaves
+/// never wins in the box. Pairwise choices miss that in a chain min(min(min(a, b), c), d) whose
+/// first leaves are all far: each pair overlaps, though all lose to a near one further on (a union
+/// of many spheres as a .vm model). Sets `choice` (1: keep a, 2: keep b) on the tree's nodes so that
+/// only live leaves stay reachable; returns whether it set any.
+bool pruneMinMaxTrees(const std::vector<Instruction>& code, const std::vector<Interval>& iv,
+                      std::vector<std::uint8_t>& choice) {
+    const std::size_t n = code.size();
+    thread_local std::vector<std::uint32_t> uses, root;
+    thread_local std::vector<float> best;
+    thread_local std::vector<std::uint8_t> dead;
+    uses.assign(n, 0);
+    for (const Instruction& in : code) {
+        const int ar = arity(in.op);
+        if (ar >= 1) ++uses[in.a];
+        if (ar >= 2) ++uses[in.b];
+    }
+    const auto isMinMax = [&](std::size_t i) { return code[i].op == Op::Min || code[i].op == Op::Max; };
+    // An operand that belongs to its user's tree: the same operation, used only there.
+    const auto inner = [&](std::size_t user, std::uint32_t x) { return code[x].op == code[user].op && uses[x] == 1; };
+    constexpr std::uint32_t kNone = ~0u;
+    root.assign(n, kNone);
+    best.assign(n, 0.f);
+    bool any = false;
+    // Backwards: each tree's root first, then its inner nodes; the best bound over its leaves.
+    for (std::size_t i = n; i-- > 0;) {
+        if (!isMinMax(i)) continue;
+        if (root[i] == kNone) {
+            root[i] = static_cast<std::uint32_t>(i);
+            best[i] = code[i].op == Op::Min ? std::numeric_limits<float>::infinity()
+                                            : -std::numeric_limits<float>::infinity();
+        }
+        const std::uint32_t r = root[i];
+        for (const std::uint32_t x : {code[i].a, code[i].b}) {
+            if (inner(i, x))
+                root[x] = r;
+            else
+                best[r] = code[i].op == Op::Min ? std::min(best[r], iv[x].hi) : std::max(best[r], iv[x].lo);
+        }
+    }
+    // Forwards (operands before users): which subtrees hold only leaves that cannot win.
+    dead.assign(n, 0);
+    for (std::size_t i = 0; i < n; ++i) {
+        if (!isMinMax(i)) continue;
+        const std::uint32_t r = root[i];
+        const bool isMin = code[i].op == Op::Min;
+        auto loses = [&](std::uint32_t x) {
+            if (inner(i, x)) return dead[x] != 0;
+            return isMin ? iv[x].lo > best[r] : iv[x].hi < best[r];
+        };
+        const bool a = loses(code[i].a), b = loses(code[i].b);
+        dead[i] = a && b;
+        if (choice[i] == 0 && a != b) {
+            choice[i] = a ? 2 : 1;
+            any = true;
+        }
+    }
+    return any;
+}
+}  // namespace
+
+std::shared_ptr<const Tape> Tape::simplify(const Box3& box, Interval* bound) const {
     const std::size_t n = code_.size();
     thread_local std::vector<Interval> iv;
     thread_local std::vector<std::uint8_t> choice;  // 0: both, 1: a only, 2: b only
@@ -227,6 +290,11 @@ std::shared_ptr<const Tape> Tape::simplify(const Box3& box) const {
             }
         }
     }
+    if (bound) {
+        *bound = iv[n - 1];
+        if (std::isnan(bound->lo) || std::isnan(bound->hi)) *bound = Interval::everything();
+    }
+    anyChoice = pruneMinMaxTrees(code_, iv, choice) || anyChoice;
     if (!anyChoice) return nullptr;
     // Backwards: what the output still needs; decided min/max nodes pass through one argument.
     std::vector<std::uint8_t> alive(n, 0);
@@ -285,6 +353,12 @@ public:
     FieldPtr simplify(const Box3& box) const override {
         auto t = tape_->simplify(box);
         return t ? std::make_shared<TapeField>(std::move(t), bounds_, description_) : nullptr;
+    }
+    /// One pass gives both: simplify's forward pass is the interval evaluation.
+    Pruned prune(const Box3& box) const override {
+        Interval b;
+        auto t = tape_->simplify(box, &b);
+        return {t ? std::make_shared<TapeField>(std::move(t), bounds_, description_) : nullptr, b};
     }
     std::string describe() const override {
         return description_ + " (" + std::to_string(tape_->size()) + " instructions)";

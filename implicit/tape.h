@@ -58,8 +58,9 @@ public:
     /// Values at points, in chunks of up to 256 with per-thread scratch.
     void eval(std::span<const glm::vec3> p, std::span<float> out) const;
     Interval eval(const Box3& box) const;
-    /// The tape restricted to `box`, or nullptr when nothing can be dropped there.
-    std::shared_ptr<const Tape> simplify(const Box3& box) const;
+    /// The tape restricted to `box`, or nullptr when nothing can be dropped there; `bound`, when
+    /// given, receives eval(box), which the same pass computes.
+    std::shared_ptr<const Tape> simplify(const Box3& box, Interval* bound = nullptr) const;
 
 private:
     void evalChunk(const glm::vec3* p, float* out, std::size_t n, float* regs) const;

@@ -185,6 +185,37 @@ TEST(Tape, PruningDropsTheBranchesThatCannotWinAndKeepsValues) {
     EXPECT_LE(s->registers(), t->registers());
 }
 
+TEST(Tape, PruningTakesNestedMinsAsOneUnionOfTheirLeaves) {
+    // The same union, and a box of one unit around sphere 100 (x = 30): a few spheres reach into it.
+    // Pairwise, min(min(..., s97), s98) keeps both sides (the far prefix's lowest value overlaps
+    // s98's range over so large a box) and with them the whole prefix; as one 200-way min, every
+    // sphere whose lowest value exceeds the lowest highest value among all of them is dropped.
+    std::string e = "sqrt((x)^2 + y^2 + z^2) - 0.1";
+    for (int i = 1; i < 200; ++i) e = "min(" + e + ", sqrt((x - " + std::to_string(i * 0.3) + ")^2 + y^2 + z^2) - 0.1)";
+    auto t = parseExpression(e);
+    const Box3 box{glm::vec3(29.5f, -0.5f, -0.5f), glm::vec3(30.5f, 0.5f, 0.5f)};
+    Interval bound;
+    auto s = t->simplify(box, &bound);
+    ASSERT_TRUE(s);
+    EXPECT_LT(s->size() * 10, t->size()) << s->size() << " of " << t->size();
+    EXPECT_EQ(bound.lo, t->eval(box).lo);
+    EXPECT_EQ(bound.hi, t->eval(box).hi);
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> u(-0.5f, 0.5f);
+    for (int i = 0; i < 200; ++i) {
+        const glm::vec3 p = box.centre() + glm::vec3(u(rng), u(rng), u(rng));
+        EXPECT_EQ(s->eval(p), t->eval(p));
+    }
+    // A max of mins and a min used twice (not a tree's inner node) keep their values too.
+    auto m = parseExpression("max(min(min(x, y), z), -min(min(x, y), 2)) + min(min(x, y), 2)");
+    const Box3 b2{glm::vec3(0.5f, 3.f, 4.f), glm::vec3(1.f, 3.5f, 5.f)};
+    if (auto ms = m->simplify(b2))
+        for (int i = 0; i < 50; ++i) {
+            const glm::vec3 p = b2.centre() + 0.25f * glm::vec3(u(rng), u(rng), u(rng));
+            EXPECT_EQ(ms->eval(p), m->eval(p));
+        }
+}
+
 TEST(Tape, ExpressionErrorsGiveTheColumn) {
     auto err = [](const char* text) {
         try {
