@@ -73,9 +73,74 @@ Tape::Tape(std::vector<Instruction> code) : code_(std::move(code)) {
 }
 
 float Tape::eval(const glm::vec3& p) const {
-    float out;
-    eval(std::span<const glm::vec3>(&p, 1), std::span<float>(&out, 1));
-    return out;
+    // One point: scalar registers side by side (a chunk's registers are 256 floats apart), the same
+    // operations as evalChunk's, so the same results bit for bit.
+    thread_local std::vector<float> regs;
+    if (regs.size() < slots_) regs.resize(slots_);
+    float* r = regs.data();
+    for (std::size_t i = 0; i < code_.size(); ++i) {
+        const Instruction& in = code_[i];
+        const float a = r[slot_[in.a]], b = r[slot_[in.b]];
+        float v = 0.f;
+        switch (in.op) {
+            case Op::Const:
+                v = in.imm;
+                break;
+            case Op::VarX:
+                v = p.x;
+                break;
+            case Op::VarY:
+                v = p.y;
+                break;
+            case Op::VarZ:
+                v = p.z;
+                break;
+            case Op::Add:
+                v = a + b;
+                break;
+            case Op::Sub:
+                v = a - b;
+                break;
+            case Op::Mul:
+                v = a * b;
+                break;
+            case Op::Div:
+                v = a / b;
+                break;
+            case Op::Min:
+                v = std::min(a, b);
+                break;
+            case Op::Max:
+                v = std::max(a, b);
+                break;
+            case Op::Neg:
+                v = -a;
+                break;
+            case Op::Square:
+                v = a * a;
+                break;
+            case Op::Sqrt:
+                v = std::sqrt(a);
+                break;
+            case Op::Abs:
+                v = std::abs(a);
+                break;
+            case Op::Exp:
+                v = std::exp(a);
+                break;
+            case Op::Log:
+                v = std::log(a);
+                break;
+            case Op::Sin:
+                v = std::sin(a);
+                break;
+            case Op::Cos:
+                v = std::cos(a);
+                break;
+        }
+        r[slot_[i]] = v;
+    }
+    return r[slot_.back()];
 }
 
 void Tape::eval(std::span<const glm::vec3> p, std::span<float> out) const {
