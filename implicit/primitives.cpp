@@ -308,10 +308,13 @@ public:
         const glm::dmat3 li(inv_);
         // ||inverse||_2 = sqrt(largest eigenvalue of li^T li); distances scale by its reciprocal.
         scale_ = static_cast<float>(1.0 / std::sqrt(largestEigenvalue(glm::transpose(li) * li)));
+        translation_ = li == glm::dmat3(1.0);
+        shift_ = glm::vec3(inv_[3]);
     }
     /// The same transform of another child (a simplification of this one's).
     Transformed(FieldPtr child, const Transformed& like)
-        : child_(std::move(child)), m_(like.m_), inv_(like.inv_), scale_(like.scale_) {}
+        : child_(std::move(child)), m_(like.m_), inv_(like.inv_), scale_(like.scale_),
+          translation_(like.translation_), shift_(like.shift_) {}
     float value(const glm::vec3& p) const override { return child_->value(local(p)) * scale_; }
     void values(std::span<const glm::vec3> p, std::span<float> out) const override {
         // One scratch buffer per nesting depth: a transform under a transform must not overwrite
@@ -358,12 +361,19 @@ public:
     bool translucent(bool inherited) const override { return child_->translucent(inherited); }
 
 private:
-    glm::vec3 local(const glm::vec3& p) const { return glm::vec3(inv_ * glm::dvec4(p, 1.0)); }
+    /// A translation (the most common transform) adds its float offset: the double product rounded
+    /// to float is that sum, correctly rounded, so both give the same bits.
+    glm::vec3 local(const glm::vec3& p) const {
+        return translation_ ? p + shift_ : glm::vec3(inv_ * glm::dvec4(p, 1.0));
+    }
     /// The chain rule: a child's gradient at local(p) to this field's, scale * (inverse's linear part)^T g.
     glm::vec3 chain(const glm::vec3& g) const {
         return glm::vec3(glm::transpose(glm::dmat3(inv_)) * glm::dvec3(g)) * scale_;
     }
-    Box3 localBox(const Box3& box) const { return transformBox(box, inv_); }
+    Box3 localBox(const Box3& box) const {
+        if (translation_ && !box.isEmpty()) return {box.min + shift_, box.max + shift_};
+        return transformBox(box, inv_);
+    }
     /// The box of the transformed box, by interval arithmetic per row (0 * infinity counts as 0,
     /// so that a 2D shape, infinite along z, keeps finite x and y bounds through a 2D transform).
     static Box3 transformBox(const Box3& b, const glm::dmat4& t) {
@@ -387,6 +397,8 @@ private:
     glm::mat4 m_;
     glm::dmat4 inv_;
     float scale_;
+    bool translation_ = false;  ///< the inverse's linear part is the identity
+    glm::vec3 shift_{0.f};      ///< then its offset
 };
 
 class Offset final : public Field {
