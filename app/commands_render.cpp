@@ -23,6 +23,7 @@
 #include "render/volume_views.h"
 #include "volume/marching_cubes.h"
 #include "volume/sample.h"
+#include "volume/surface_box.h"
 #include "volume/vdb_io.h"
 
 namespace isoforge::app {
@@ -278,8 +279,13 @@ void addRenderCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
             }
             const float aspect = float(opt.width) / float(opt.height);
             if (!haveCamera || a->cameraAuto) {
-                const implicit::Box3 frameOf =
-                    bounds.isEmpty() ? implicit::Box3{glm::vec3(-1.f), glm::vec3(1.f)} : bounds;
+                implicit::Box3 frameOf = bounds.isEmpty() ? implicit::Box3{glm::vec3(-1.f), glm::vec3(1.f)} : bounds;
+                // The mesh path frames its mesh's vertices; marching frames those of a coarse mesh of
+                // the same surface, not the field's often loose bounds.
+                if (field && meshes.empty() && !grid && bounds.isBounded() && !bounds.isEmpty()) {
+                    const implicit::Box3 surface = volume::surfaceBox(field, clip, 128);
+                    if (!surface.isEmpty()) frameOf = surface;
+                }
                 // Volumes from scanners: seen from the front (anterior), head up, the patient's left on the right.
                 look.camera = dense ? render::frameBox(frameOf, aspect, glm::vec3(0.f, 1.f, 0.f))
                                     : render::frameBox(frameOf, aspect);

@@ -1,15 +1,17 @@
 // The cell grid the field marcher walks (render/field_grid.h): its cells' classes against the field's
 // values, and its walk against the cells that points along a ray fall in, jumps over empty space
-// included.
+// included; and the box automatic framing fits (volume/surface_box.h).
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
+#include <string>
 
 #include <glm/geometric.hpp>
 
 #include "csg/scene.h"
 #include "render/field_grid.h"
+#include "volume/surface_box.h"
 
 using namespace isoforge;
 
@@ -89,4 +91,37 @@ TEST(FieldGrid, TranslucencyFollowsTheInnermostColour) {
     EXPECT_TRUE(glass("color(\"red\") union() { color([1, 1, 1, 0.5]) sphere(1); color([0, 0, 1, 0.2]) cube(1); }"));
     EXPECT_FALSE(glass("union() { color([1, 1, 1, 0.5]) sphere(1); cube(1); }"));
     EXPECT_TRUE(glass("translate([1, 0, 0]) color([1, 1, 1, 0.5]) difference() { sphere(1); cube(1); }"));
+}
+
+TEST(SurfaceBox, FramesWhatTheMeshPathsVerticesSpan) {
+    // Fields whose own bounds are loose (a blobby's are its balls' supports; a difference's and an
+    // intersection's their first child's) and one whose bounds are exact: the box of a coarse mesh's
+    // vertices (what the march path frames) against the vertices of the fine mesh the mesh path
+    // renders (512 voxels there; 256 here): within a coarse voxel's chord, and well inside the
+    // field's own bounds where those are loose.
+    const char* scenes[] = {
+        "blobby(threshold = 0.5) { ball(center = [0, 0, 0], r = 1.6); ball(center = [0.6, 0.2, 0.9], r = 1.3); }",
+        "difference() { intersection() { cube(3, center = true); sphere(2); } cylinder(h = 4, r = 0.75, center = "
+        "true); }",
+        "translate([1, 2, 3]) cube([1, 2, 3]);",
+        "intersection() { sphere(1); translate([0, 0, 0.8]) cube(2, center = true); }",
+    };
+    for (const char* text : scenes) {
+        const csg::Scene s = csg::parseScene(text, "box.isf");
+        const implicit::Box3 everything = implicit::Box3::everything();
+        const implicit::Box3 coarse = volume::surfaceBox(s.root, everything, 128);
+        const implicit::Box3 fine = volume::surfaceBox(s.root, everything, 256);
+        ASSERT_FALSE(coarse.isEmpty()) << text;
+        const implicit::Box3 loose = s.root->bounds();
+        const float voxel = std::max({loose.size().x, loose.size().y, loose.size().z}) / 128.f;
+        for (int k = 0; k < 3; ++k) {
+            EXPECT_NEAR(coarse.min[k], fine.min[k], 0.25f * voxel) << text << " axis " << k;
+            EXPECT_NEAR(coarse.max[k], fine.max[k], 0.25f * voxel) << text << " axis " << k;
+        }
+        if (std::string(text).find("blobby") != std::string::npos) {
+            EXPECT_LT(glm::length(coarse.size()), 0.8f * glm::length(loose.size())) << "a blobby's supports are loose";
+        }
+    }
+    const csg::Scene none = csg::parseScene("difference() { cube(1); cube(3, center = true); }", "none.isf");
+    EXPECT_TRUE(volume::surfaceBox(none.root, implicit::Box3::everything(), 64).isEmpty());
 }

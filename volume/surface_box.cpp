@@ -1,0 +1,20 @@
+#include "volume/surface_box.h"
+
+#include "volume/marching_cubes.h"
+#include "volume/sample.h"
+
+namespace isoforge::volume {
+
+implicit::Box3 surfaceBox(const implicit::FieldPtr& field, const implicit::Box3& clip, int resolution) {
+    const implicit::Box3 domain = sampleDomain(*field, clip);
+    if (domain.isEmpty() || !domain.isBounded()) return domain;
+    SampleOptions so;
+    so.voxelSize = voxelSizeForResolution(domain, resolution);
+    so.clip = clip;
+    const mesh::TriMesh m = extractIsosurface(*sample(field, so), MeshingOptions{});
+    implicit::Box3 box;
+    for (const auto& p : m.positions) box = box.unite(implicit::Box3{p, p});
+    return box;
+}
+
+}  // namespace isoforge::volume
