@@ -313,8 +313,12 @@ public:
     }
     /// The same transform of another child (a simplification of this one's).
     Transformed(FieldPtr child, const Transformed& like)
-        : child_(std::move(child)), m_(like.m_), inv_(like.inv_), scale_(like.scale_),
-          translation_(like.translation_), shift_(like.shift_) {}
+        : child_(std::move(child)),
+          m_(like.m_),
+          inv_(like.inv_),
+          scale_(like.scale_),
+          translation_(like.translation_),
+          shift_(like.shift_) {}
     float value(const glm::vec3& p) const override { return child_->value(local(p)) * scale_; }
     void values(std::span<const glm::vec3> p, std::span<float> out) const override {
         // One scratch buffer per nesting depth: a transform under a transform must not overwrite
@@ -368,6 +372,7 @@ private:
     }
     /// The chain rule: a child's gradient at local(p) to this field's, scale * (inverse's linear part)^T g.
     glm::vec3 chain(const glm::vec3& g) const {
+        if (translation_) return g * scale_;  // the identity's product is g exactly
         return glm::vec3(glm::transpose(glm::dmat3(inv_)) * glm::dvec3(g)) * scale_;
     }
     Box3 localBox(const Box3& box) const {
