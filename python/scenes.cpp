@@ -11,6 +11,7 @@
 #include "render/scene.h"
 #include "volume/marching_cubes.h"
 #include "volume/sample.h"
+#include "volume/surface_box.h"
 
 namespace isoforge::python {
 
@@ -186,8 +187,14 @@ void bindScenes(py::module_& m) {
                 if (!meshes.empty()) bounds = meshBounds(meshes);
                 if (!haveCamera) {
                     const float aspect = float(width) / float(height);
-                    look.camera = render::frameBox(
-                        bounds.isEmpty() ? implicit::Box3{glm::vec3(-1.f), glm::vec3(1.f)} : bounds, aspect);
+                    implicit::Box3 frameOf =
+                        bounds.isEmpty() ? implicit::Box3{glm::vec3(-1.f), glm::vec3(1.f)} : bounds;
+                    // As `isoforge render` frames a marched field: its surface's box, not its bounds.
+                    if (field.field && meshes.empty() && bounds.isBounded() && !bounds.isEmpty()) {
+                        const implicit::Box3 surface = volume::surfaceBox(field.field, field.clip, 128);
+                        if (!surface.isEmpty()) frameOf = surface;
+                    }
+                    look.camera = render::frameBox(frameOf, aspect);
                 }
                 if (method == "mesh") {
                     std::vector<render::MeshObject> objs;
