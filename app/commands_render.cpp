@@ -282,10 +282,7 @@ void addRenderCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                 implicit::Box3 frameOf = bounds.isEmpty() ? implicit::Box3{glm::vec3(-1.f), glm::vec3(1.f)} : bounds;
                 // The mesh path frames its mesh's vertices; marching frames those of a coarse mesh of
                 // the same surface, not the field's often loose bounds.
-                if (field && meshes.empty() && !grid && bounds.isBounded() && !bounds.isEmpty()) {
-                    const implicit::Box3 surface = volume::surfaceBox(field, clip, 128);
-                    if (!surface.isEmpty()) frameOf = surface;
-                }
+                if (field && meshes.empty() && !grid) frameOf = volume::framingBox(field, clip);
                 // Volumes from scanners: seen from the front (anterior), head up, the patient's left on the right.
                 look.camera = dense ? render::frameBox(frameOf, aspect, glm::vec3(0.f, 1.f, 0.f))
                                     : render::frameBox(frameOf, aspect);

@@ -190,10 +190,7 @@ void bindScenes(py::module_& m) {
                     implicit::Box3 frameOf =
                         bounds.isEmpty() ? implicit::Box3{glm::vec3(-1.f), glm::vec3(1.f)} : bounds;
                     // As `isoforge render` frames a marched field: its surface's box, not its bounds.
-                    if (field.field && meshes.empty() && bounds.isBounded() && !bounds.isEmpty()) {
-                        const implicit::Box3 surface = volume::surfaceBox(field.field, field.clip, 128);
-                        if (!surface.isEmpty()) frameOf = surface;
-                    }
+                    if (field.field && meshes.empty()) frameOf = volume::framingBox(field.field, field.clip);
                     look.camera = render::frameBox(frameOf, aspect);
                 }
                 if (method == "mesh") {

@@ -17,4 +17,12 @@ implicit::Box3 surfaceBox(const implicit::FieldPtr& field, const implicit::Box3&
     return box;
 }
 
+implicit::Box3 framingBox(const implicit::FieldPtr& field, const implicit::Box3& clip) {
+    const implicit::Box3 domain = sampleDomain(*field, clip);
+    if (domain.isEmpty()) return {glm::vec3(-1.f), glm::vec3(1.f)};
+    if (!domain.isBounded()) return domain;
+    const implicit::Box3 surface = surfaceBox(field, clip, 128);
+    return surface.isEmpty() ? domain : surface;
+}
+
 }  // namespace isoforge::volume

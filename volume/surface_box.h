@@ -14,4 +14,9 @@ namespace isoforge::volume {
 /// resolution, save parts thinner than a voxel.
 implicit::Box3 surfaceBox(const implicit::FieldPtr& field, const implicit::Box3& clip, int resolution);
 
+/// What automatic framing fits for a field rendered without a mesh (the command line's and Python's
+/// render): surfaceBox() at 128 voxels where the domain is bounded and holds a surface, else the
+/// domain, else [-1, 1]^3.
+implicit::Box3 framingBox(const implicit::FieldPtr& field, const implicit::Box3& clip);
+
 }  // namespace isoforge::volume
