@@ -2,6 +2,7 @@
 #include <chrono>
 #include <cstdio>
 #include <iostream>
+#include <optional>
 
 #include "app/commands.h"
 #include "app/mesh_slabs.h"
@@ -26,6 +27,7 @@
 #include "volume/sample.h"
 #include "volume/surface.h"
 #include "volume/vdb_io.h"
+#include "volume/voxel_source.h"
 #include "volume/voxelize.h"
 
 namespace isoforge::app {
@@ -146,14 +148,46 @@ int meshVolumeFileBySlabs(const std::string& input, const std::string& gridName,
         throw CLI::ValidationError("--memory", "a mesh written in slabs is .ply, .obj or .stl");
     job.what = input;
     volume::DenseVolume dense;
+    std::optional<volume::VoxelSource> source;
     if (isDenseVolumeFile(input)) {
-        dense = loadVolume(input, vin, g);
-        job.volume = &dense;
+        // Read a run of slabs at a time where the format allows it (never the whole volume), else whole.
+        source = volume::voxelSource(input, readOptions(vin));
+        if (source) {
+            job.source = &*source;
+        } else {
+            dense = loadVolume(input, vin, g);
+            job.volume = &dense;
+        }
     } else {
         requireVdb(input);
         job.grid = volume::readFloatGrid(input, gridName.empty() ? std::nullopt : std::optional(gridName));
     }
     return meshBySlabsToFile(job, g);
+}
+
+/// True (and says so) when a volume file's voxels as floats would take more than half of this machine's
+/// memory, and the job can be meshed in slabs instead: a format read a run of slabs at a time, output
+/// that streams, nothing that looks across slabs. Reading it whole would be refused.
+bool volumeTooBigForMemory(const std::string& input, const VolumeInput& vin, int smooth, bool sharp, bool maxError,
+                           const std::string& output, const GlobalOptions& g) {
+    if (!isDenseVolumeFile(input) || smooth > 0 || sharp || maxError || vin.tolerance > 0 ||
+        !mesh::MeshStreamWriter::canStream(output))
+        return false;
+    std::optional<volume::VoxelSource> source;
+    try {
+        source = volume::voxelSource(input, readOptions(vin));
+    } catch (const std::exception&) {
+        return false;  // the whole read reports it
+    }
+    if (!source) return false;
+    const double bytes = double(source->header.voxelCount()) * 4.0;
+    if (bytes <= double(volume::physicalMemory() / 2)) return false;
+    if (!g.quiet)
+        std::printf(
+            "%s as floats would take about %s, more than half of this machine's memory: meshing in slabs "
+            "(as with --memory %s)\n",
+            input.c_str(), bytesText(bytes).c_str(), bytesText(double(volume::physicalMemory() / 2)).c_str());
+    return true;
 }
 
 /// `mesh --labels`: one closed, coloured surface per label of a label map.
@@ -344,7 +378,9 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                     return meshBySlabsToFile(job, g);
                 }
                 grid = sampleField(field, so, g, g.quiet ? nullptr : &progress, a->stats);
-            } else if (memoryLimit > 0) {
+            } else if (memoryLimit > 0 ||
+                       volumeTooBigForMemory(a->input, a->volume, a->smooth, a->sharp, a->maxError > 0, a->output, g)) {
+                if (memoryLimit == 0) memoryLimit = volume::physicalMemory() / 2;
                 return meshVolumeFileBySlabs(a->input, a->grid, a->volume, a->smooth, a->sharp, a->maxError > 0,
                                              slabJob(), g);
             } else {

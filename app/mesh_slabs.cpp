@@ -32,6 +32,20 @@ int meshBySlabsToFile(const SlabMeshJob& job, const GlobalOptions& g) {
     if (job.memoryLimit < base + kMinimum)
         throw ResourceError("--memory " + mebibytes(job.memoryLimit) + " leaves nothing to mesh with: isoforge holds " +
                             mebibytes(base) + " before it starts; give at least " + mebibytes(base + kMinimum));
+    // A volume file read in passes: a third of the rest holds the voxels of the pass's slabs (as
+    // floats), and the rest a slab's grid (at most as large), its mesh and the writer's buffers.
+    const std::uint64_t voxelBytes = (job.memoryLimit - base) / 3;
+    if (job.source && volume::sourceSlabBytes(*job.source, 128) > voxelBytes) {
+        const std::uint64_t one = volume::sourceSlabBytes(*job.source, 128);
+        const auto& d = job.source->header.dims;
+        throw ResourceError(job.what + ": one slab of its voxels (" +
+                            std::to_string(std::min<std::int64_t>(d[0], 152)) + " x " + std::to_string(d[1]) + " x " +
+                            std::to_string(d[2]) + " as floats) takes " + mebibytes(one) + ", and --memory " +
+                            mebibytes(job.memoryLimit) + " leaves " + mebibytes(voxelBytes) +
+                            " for them (a third of what isoforge does not hold already): "
+                            "raise --memory to at least " +
+                            mebibytes(base + 3 * one));
+    }
     // The mesh goes to disk, twice over (scratch files, then the file): refuse what the disk cannot take.
     const double perVertex = 12.0 * (1 + job.normals) + 3 + 2 * 13.0;  // PLY: a vertex, two faces
     const double diskBytes = job.field ? 2 * volume::estimateSurfaceVoxels(*job.field, job.sample) * perVertex : 0;
@@ -61,6 +75,7 @@ int meshBySlabsToFile(const SlabMeshJob& job, const GlobalOptions& g) {
     wo.colors = so.colors;
     mesh::MeshStreamWriter writer(job.output, wo);
     volume::SlabStats st;
+    volume::SourceSlabStats read;
     const auto sink = [&](const volume::SlabPiece& p) {
         const std::span<const glm::vec3> pos(p.mesh.positions);
         writer.addVertices(
@@ -73,6 +88,8 @@ int meshBySlabsToFile(const SlabMeshJob& job, const GlobalOptions& g) {
     try {
         if (job.field) {
             volume::meshBySlabs(job.field, so, sink, &st);
+        } else if (job.source) {
+            volume::meshVolumeSourceBySlabs(*job.source, so, voxelBytes, sink, &st, &read);
         } else if (job.volume) {
             volume::ToGridOptions go;
             go.background = job.volume->range().first;  // as the whole volume's grid has it
@@ -95,6 +112,15 @@ int meshBySlabsToFile(const SlabMeshJob& job, const GlobalOptions& g) {
     const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
     if (writer.triangleCount() == 0)
         std::cerr << "isoforge: warning: no surface in " << job.what << "; writing an empty mesh\n";
+    if (!g.quiet && job.source) {
+        const volume::DenseVolume& h = job.source->header;
+        std::printf(
+            "read %s (%s): %lld x %lld x %lld %s voxels, values %g .. %g, in %s pass%s over the file "
+            "(%s of voxels held at once) in %.3f s\n",
+            job.what.c_str(), h.format.c_str(), (long long)h.dims[0], (long long)h.dims[1], (long long)h.dims[2],
+            h.storedType.c_str(), double(read.range.first), double(read.range.second), withCommas(read.passes).c_str(),
+            read.passes == 1 ? "" : "es", mebibytes(read.bufferBytes).c_str(), read.secondsRead);
+    }
     if (!g.quiet) {
         std::printf("meshed %s in %s slabs of %d voxels: %s vertices, %s triangles in %.3f s -> %s\n", job.what.c_str(),
                     withCommas(st.slabs).c_str(), so.slabWidth, withCommas(writer.vertexCount()).c_str(),

@@ -10,13 +10,16 @@
 #include "volume/dense_volume.h"
 #include "volume/marching_cubes.h"
 #include "volume/sample.h"
+#include "volume/voxel_source.h"
 
 namespace isoforge::app {
 
-/// One of: a field (sampled a slab at a time), a dense volume (converted a slab at a time; the volume
-/// itself is held), a grid already in memory (only the mesh is held a slab at a time).
+/// One of: a field (sampled a slab at a time), a volume file read a run of slabs at a time (never held
+/// whole), a dense volume (converted a slab at a time; the volume itself is held: DICOM), a grid already
+/// in memory (only the mesh is held a slab at a time).
 struct SlabMeshJob {
     implicit::FieldPtr field;
+    const volume::VoxelSource* source = nullptr;
     const volume::DenseVolume* volume = nullptr;
     openvdb::FloatGrid::ConstPtr grid;
     std::string what;              ///< for messages: the field, the file

@@ -32,7 +32,7 @@ bool isDenseVolumeFile(const std::string& path) {
     return e != ".vdb";
 }
 
-volume::DenseVolume loadVolume(const std::string& path, const VolumeInput& in, const GlobalOptions& g) {
+volume::VolumeReadOptions readOptions(const VolumeInput& in) {
     volume::VolumeReadOptions o;
     if (!in.dims.empty()) o.rawDims = {in.dims[0], in.dims[1], in.dims[2]};
     o.rawType = in.type;
@@ -40,6 +40,11 @@ volume::DenseVolume loadVolume(const std::string& path, const VolumeInput& in, c
     o.rawBigEndian = in.endian == "big";
     o.rawOffset = in.offset;
     o.dicomSeries = in.series;
+    return o;
+}
+
+volume::DenseVolume loadVolume(const std::string& path, const VolumeInput& in, const GlobalOptions& g) {
+    const volume::VolumeReadOptions o = readOptions(in);
     const auto t0 = std::chrono::steady_clock::now();
     volume::DenseVolume v = volume::readVolume(path, o);
     const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

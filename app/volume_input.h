@@ -28,6 +28,9 @@ void addVolumeReadOptions(CLI::App* cmd, VolumeInput& in);
 /// True for volume files other than .vdb (medical formats, raw, a DICOM directory).
 bool isDenseVolumeFile(const std::string& path);
 
+/// The reader's options from the command line's.
+volume::VolumeReadOptions readOptions(const VolumeInput& in);
+
 /// Reads the volume; prints a line (format, dims, spacing, orientation, range, time) unless quiet.
 volume::DenseVolume loadVolume(const std::string& path, const VolumeInput& in, const GlobalOptions& g);
 

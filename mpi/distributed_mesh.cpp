@@ -1,5 +1,6 @@
 #include "mpi/distributed_mesh.h"
 
+#include <algorithm>
 #include <chrono>
 #include <limits>
 
@@ -18,12 +19,29 @@ double secondsSince(Clock::time_point t) {
 /// Meshes the rank's run of slabs, numbered from 0 within the rank.
 void meshRun(const SlabSource& source, const volume::SlabOptions& options, const std::vector<std::int64_t>& origins,
              std::size_t count, RankPiece& piece) {
-    const volume::VolumeView view = source.volume
-                                        ? volume::VolumeView{source.volume->values.data(), source.volume->dims,
-                                                             source.volume->indexToWorld, source.volume->format}
-                                        : volume::VolumeView{};
+    volume::VolumeView view = source.volume ? volume::VolumeView{source.volume->values.data(), source.volume->dims,
+                                                                 source.volume->indexToWorld, source.volume->format}
+                                            : volume::VolumeView{};
     volume::ToGridOptions grid;
     if (source.volume) grid.background = source.volume->range().first;  // the whole volume's, on every rank
+    volume::XRanges run;
+    if (source.file && count > 0) {
+        // One pass over the file: the run's x range with its halo (a block column below, two above),
+        // and the whole volume's range, whose minimum every rank takes as the background.
+        const auto t0 = Clock::now();
+        const volume::DenseVolume& h = source.file->header;
+        const std::int64_t x0 = origins[piece.firstSlab] - 8,
+                           x1 = origins[piece.firstSlab + count - 1] + options.slabWidth + 16;
+        run = volume::readXRanges(*source.file, {{x0, x1}});
+        view = volume::VolumeView{run.values[0].data(),
+                                  {std::min(x1, h.dims[0]) - run.begin[0], h.dims[1], h.dims[2]},
+                                  h.indexToWorld,
+                                  h.format};
+        view.xOffset = run.begin[0];
+        grid.background = run.range.first;
+        piece.secondsRead = secondsSince(t0);
+        piece.bytesRead = run.values[0].size() * sizeof(float);
+    }
     std::uint64_t local = 0;
     piece.slabs.resize(count);
     for (std::size_t i = 0; i < count; ++i) {
@@ -33,7 +51,7 @@ void meshRun(const SlabSource& source, const volume::SlabOptions& options, const
         part.vertexBase = local;
         const bool first = s == 0, last = s + 1 == origins.size();
         part.owned =
-            source.volume
+            source.volume || source.file
                 ? volume::meshVolumeSlab(view, grid, options, x0, x1, first, last, local, part.mesh, &piece.stats)
                 : volume::meshSlab(source.field, options, x0, x1, first, last, local, part.mesh, &piece.stats);
         ++piece.stats.slabs;
@@ -55,10 +73,10 @@ RankPiece meshRankSlabs(const SlabSource& source, const volume::SlabOptions& opt
     try {
         std::vector<std::int64_t> origins;
         std::vector<std::size_t> begin;
-        if (source.volume) {
-            origins = volume::volumeSlabOrigins(
-                volume::VolumeView{nullptr, source.volume->dims, source.volume->indexToWorld, source.volume->format},
-                options.slabWidth);
+        if (source.volume || source.file) {
+            const volume::DenseVolume& h = source.volume ? *source.volume : source.file->header;
+            origins = volume::volumeSlabOrigins(volume::VolumeView{nullptr, h.dims, h.indexToWorld, h.format},
+                                                options.slabWidth);
             for (int r = 0; r <= ranks; ++r) begin.push_back(origins.size() * static_cast<std::size_t>(r) / ranks);
         } else {
             origins = volume::slabOrigins(*source.field, options.sample, options.slabWidth);

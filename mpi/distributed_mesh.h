@@ -15,6 +15,7 @@
 #include "mesh/trimesh.h"
 #include "volume/bricked.h"
 #include "volume/dense_volume.h"
+#include "volume/voxel_source.h"
 
 namespace isoforge::mpi {
 
@@ -37,11 +38,15 @@ struct RankPiece {
     volume::SlabStats stats;
     double secondsMpi = 0;             ///< time in MPI calls (the scans)
     std::uint64_t bytesExchanged = 0;  ///< bytes this rank sent in them
+    double secondsRead = 0;            ///< reading its slabs of a volume file
+    std::uint64_t bytesRead = 0;       ///< the voxels (floats) of them it held
 };
 
-/// What the ranks mesh: a field (sampled a slab at a time) or a dense volume every rank holds.
+/// What the ranks mesh: a field (sampled a slab at a time), a volume file of which each rank reads the
+/// x range of its own slabs (and their halo), or a dense volume every rank holds (a DICOM series).
 struct SlabSource {
     implicit::FieldPtr field;
+    const volume::VoxelSource* file = nullptr;
     const volume::DenseVolume* volume = nullptr;
 };
 

@@ -18,6 +18,7 @@
 #include "volume/dense_volume.h"
 #include "volume/machine_memory.h"
 #include "volume/vdb_io.h"
+#include "volume/voxel_source.h"
 
 namespace {
 
@@ -42,6 +43,7 @@ int runMesh(const Args& a, MPI_Comm comm) {
     // Stage 1: every rank reads the input itself (the same field, or the same volume, on each).
     mpi::SlabSource source;
     volume::DenseVolume dense;
+    std::optional<volume::VoxelSource> file;
     std::string what;
     volume::SlabOptions so;
     std::string error;
@@ -60,8 +62,14 @@ int runMesh(const Args& a, MPI_Comm comm) {
             so.sample.halfWidth = a.field.halfWidth;
             so.sample.clip = clip;
         } else if (!a.input.empty() && volume::isVolumePath(a.input) && ext != ".vdb" && ext != ".raw") {
-            dense = volume::readVolume(a.input);  // every rank reads it whole; each meshes its own slabs
-            source.volume = &dense;
+            // Each rank reads its own slabs' x range in one pass over the file; a DICOM series whole.
+            file = volume::voxelSource(a.input);
+            if (file) {
+                source.file = &*file;
+            } else {
+                dense = volume::readVolume(a.input);
+                source.volume = &dense;
+            }
             what = a.input;
         } else {
             status = 2;
@@ -104,6 +112,8 @@ int runMesh(const Args& a, MPI_Comm comm) {
     MPI_Reduce(&peak, &maxPeak, 1, MPI_UNSIGNED_LONG_LONG, MPI_MAX, 0, comm);
     MPI_Reduce(&bytes, &allBytes, 1, MPI_UNSIGNED_LONG_LONG, MPI_SUM, 0, comm);
     MPI_Reduce(&leaves, &allLeaves, 1, MPI_UNSIGNED_LONG_LONG, MPI_SUM, 0, comm);
+    unsigned long long read = piece.bytesRead, maxRead = 0;
+    MPI_Reduce(&read, &maxRead, 1, MPI_UNSIGNED_LONG_LONG, MPI_MAX, 0, comm);
     const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
     if (rank == 0 && !a.quiet) {
         std::printf(
@@ -115,6 +125,9 @@ int runMesh(const Args& a, MPI_Comm comm) {
             "peak memory of a rank %s MiB\n",
             so.slabWidth, countText(allLeaves).c_str(), meshSeconds, writeSeconds, maxMpi, countText(allBytes).c_str(),
             countText(maxPeak >> 20).c_str());
+        if (source.file)
+            std::printf("each rank read the x range of its slabs from the file: at most %s MiB of voxels on a rank\n",
+                        countText(maxRead >> 20).c_str());
     }
     return 0;
 }

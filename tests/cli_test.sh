@@ -328,6 +328,23 @@ if [ -f "$ct" ]; then
     cmp -s "$tmp/ct_whole.ply" "$tmp/ct_slabs.ply" && ok || bad "mesh CT --memory: not the in-memory path's bytes"
     expect_exit 2 "mesh CT --memory --smooth" "$bin" mesh "$ct" --iso 1000 --smooth 1 -o "$tmp/x.ply" --memory 500M
 fi
+# A volume file wider than its slabs, read a few slabs at a time (never whole): the same bytes, under the
+# limit, where the in-memory path holds the whole volume (a 1237 x 159 x 159 float NIfTI: 125 MB).
+printf 'difference() { cube([8, 1, 1], center = true); rotate([0, 90, 0]) cylinder(h = 9, r = 0.3, center = true); }\n' >"$tmp/wide.isf"
+"$bin" --quiet sample "$tmp/wide.isf" --voxel 0.0065 -o "$tmp/wide.vdb" && "$bin" --quiet convert "$tmp/wide.vdb" -o "$tmp/wide.nii"
+"$bin" --quiet mesh "$tmp/wide.nii" --normals -o "$tmp/wide_whole.ply"
+expect_exit 0 "mesh NIfTI --memory (read in passes)" "$bin" mesh "$tmp/wide.nii" --normals -o "$tmp/wide_slabs.ply" --memory 150M
+cmp -s "$tmp/wide_whole.ply" "$tmp/wide_slabs.ply" && ok || bad "mesh NIfTI --memory: not the in-memory path's bytes"
+grep -Eq "in [2-9] passes over the file" "$tmp/out" && ok || { bad "mesh NIfTI --memory: not read in passes"; cat "$tmp/out"; }
+awk '/^peak memory/ { v = $3; gsub(",", "", v); exit !(v + 0 > 0 && v + 0 <= 150) }' "$tmp/out" && ok \
+    || { bad "mesh NIfTI --memory: peak memory not under the limit"; cat "$tmp/out"; }
+rm -f "$tmp/wide.nii" "$tmp/wide.vdb"
+frog="$shared/volumes/frog-tissue-labels/frogtissue.mhd"
+if [ -f "$frog" ]; then  # one slab of the frog (152 x 470 x 136 floats, 39 MiB) needs three times that
+    expect_exit 1 "mesh volume --memory (a slab cannot fit)" "$bin" mesh "$frog" --iso 3.5 -o "$tmp/x.ply" --memory 120M
+    grep -q "raise --memory to at least" "$tmp/err" && ok || { bad "mesh volume --memory: no estimate when a slab cannot fit"; cat "$tmp/err"; }
+    [ ! -e "$tmp/x.ply" ] && ok || bad "mesh volume --memory: a partial output was left"
+fi
 "$bin" --quiet mesh "$src/data/sphere.vdb" -o "$tmp/vdb_whole.stl"
 expect_exit 0 "mesh .vdb --memory" "$bin" mesh "$src/data/sphere.vdb" -o "$tmp/vdb_slabs.stl" --memory 500M
 cmp -s "$tmp/vdb_whole.stl" "$tmp/vdb_slabs.stl" && ok || bad "mesh .vdb --memory: not the in-memory path's bytes"

@@ -43,6 +43,9 @@ check "quartic (ascii ply)" ply --expr "x^4+y^4+z^4-1" --box -2,-2,-2,2,2,2 --re
 # A real CT series (512 x 512 x 48, four slabs): every rank reads it, each meshes its slabs.
 ct="$(dirname "$0")/../../shared/data/volumes/ct-abdomen-dicom/series"
 [ -d "$ct" ] && check "CT series (ply, normals)" ply "$ct" --iso 300 --normals
+# A volume file each rank reads only its slabs of (MetaImage, zlib data): 500 columns, four slabs.
+frog="$(dirname "$0")/../../shared/data/volumes/frog-tissue-labels/frogtissue.mhd"
+[ -f "$frog" ] && check "frog labels read in slabs (stl)" stl "$frog" --iso 3.5
 if [ "$full" = --full ]; then
     check "showcase (ply)" ply "$(dirname "$0")/../examples/showcase.isf" --resolution 1200
     check "sphere (ply, normals)" ply --shape "sphere(r=1)" --voxel 0.001 --normals

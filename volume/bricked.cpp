@@ -190,6 +190,60 @@ void meshVolumeBySlabs(const VolumeView& volume, const ToGridOptions& grid, cons
     meshSlabsInOrder(origins, volumeSlabs(volume, grid), nullptr, options, sink, stats ? *stats : local);
 }
 
+std::uint64_t sourceSlabBytes(const VoxelSource& source, int slabWidth) {
+    const auto& d = source.header.dims;
+    const std::int64_t width = std::min<std::int64_t>(d[0], slabWidth + 24);  // the slab, 8 below, 16 above
+    return std::uint64_t(width) * std::uint64_t(d[1]) * std::uint64_t(d[2]) * sizeof(float);
+}
+
+void meshVolumeSourceBySlabs(const VoxelSource& source, const SlabOptions& options, std::uint64_t bufferBytes,
+                             const std::function<void(const SlabPiece&)>& sink, SlabStats* stats,
+                             SourceSlabStats* sourceStats) {
+    const VolumeView shape{nullptr, source.header.dims, source.header.indexToWorld, source.header.format};
+    const std::vector<std::int64_t> origins = volumeSlabOrigins(shape, options.slabWidth);
+    const std::size_t perPass = std::clamp<std::size_t>(
+        std::size_t(bufferBytes / std::max<std::uint64_t>(1, sourceSlabBytes(source, options.slabWidth))), 1,
+        origins.size());
+    SourceSlabStats local;
+    SourceSlabStats& ss = sourceStats ? *sourceStats : local;
+    XRanges pass;
+    std::size_t first = 0;  // the pass holds slabs [first, first + pass.values.size())
+    ToGridOptions go;
+    // A slab's grid from the pass holding it; the next pass is read when the walk reaches its first slab.
+    const SlabGrid fromPass = [&](std::int64_t xBegin, std::int64_t xEnd, SlabStats& st) {
+        const std::size_t s = std::size_t((xBegin + 8) / options.slabWidth);
+        if (ss.passes == 0 || s >= first + pass.values.size()) {
+            const auto t0 = Clock::now();
+            first = s;
+            pass = XRanges{};  // the last pass's voxels go before the next one's come
+            std::vector<std::pair<std::int64_t, std::int64_t>> ranges;
+            for (std::size_t i = s; i < std::min(origins.size(), s + perPass); ++i)
+                ranges.emplace_back(origins[i] - 8, origins[i] + options.slabWidth + 16);
+            pass = readXRanges(source, ranges);
+            std::uint64_t bytes = 0;
+            for (const auto& v : pass.values) bytes += v.size() * sizeof(float);
+            ss.bufferBytes = std::max(ss.bufferBytes, bytes);
+            if (ss.passes++ == 0) ss.range = pass.range;
+            go.background = ss.range.first;
+            ss.secondsRead += secondsSince(t0);
+        }
+        const std::size_t i = s - first;
+        const auto& d = source.header.dims;
+        const std::int64_t begin = pass.begin[i], end = std::min(d[0], origins[s] + options.slabWidth + 16);
+        VolumeView view{
+            pass.values[i].data(), {end - begin, d[1], d[2]}, source.header.indexToWorld, source.header.format};
+        view.xOffset = begin;
+        ToGridOptions o = go;
+        o.xBegin = xBegin;
+        o.xEnd = xEnd;
+        openvdb::FloatGrid::Ptr g = toGrid(view, o);
+        st.leaves += g->tree().leafCount();
+        return g;
+    };
+    SlabStats localSlabs;
+    meshSlabsInOrder(origins, fromPass, nullptr, options, sink, stats ? *stats : localSlabs);
+}
+
 void meshGridBySlabs(const openvdb::FloatGrid& grid, const SlabOptions& options,
                      const std::function<void(const SlabPiece&)>& sink, SlabStats* stats) {
     if (options.slabWidth <= 0 || options.slabWidth % kNode)

@@ -19,6 +19,7 @@
 #include "volume/dense_grid.h"
 #include "volume/marching_cubes.h"
 #include "volume/sample.h"
+#include "volume/voxel_source.h"
 
 namespace isoforge::volume {
 
@@ -72,6 +73,22 @@ void meshBySlabs(const implicit::FieldPtr& field, const SlabOptions& options,
 /// @throw std::invalid_argument without grid.background (a slab's minimum is not the volume's)
 void meshVolumeBySlabs(const VolumeView& volume, const ToGridOptions& grid, const SlabOptions& options,
                        const std::function<void(const SlabPiece&)>& sink, SlabStats* stats = nullptr);
+
+/// The same for a volume file read a run of slabs at a time (volume/voxel_source.h): each pass over the
+/// file keeps the x ranges (and halos) of as many slabs as `bufferBytes` of floats hold, at least one, so
+/// the volume is never held whole; the first pass also finds the volume's range, whose minimum is the
+/// background (as toGrid's). The same pieces as meshVolumeBySlabs on the whole volume.
+struct SourceSlabStats {
+    std::size_t passes = 0;               ///< passes over the file
+    std::uint64_t bufferBytes = 0;        ///< the largest pass's voxels, held at once
+    std::pair<float, float> range{0, 0};  ///< the volume's minimum and maximum
+    double secondsRead = 0;               ///< reading and converting the voxels
+};
+void meshVolumeSourceBySlabs(const VoxelSource& source, const SlabOptions& options, std::uint64_t bufferBytes,
+                             const std::function<void(const SlabPiece&)>& sink, SlabStats* stats = nullptr,
+                             SourceSlabStats* sourceStats = nullptr);
+/// The floats one slab of a volume file holds in meshVolumeSourceBySlabs (the widest, with its halo).
+std::uint64_t sourceSlabBytes(const VoxelSource& source, int slabWidth);
 
 /// The slabs of a volume: x origins 0, slabWidth, ... below its width.
 std::vector<std::int64_t> volumeSlabOrigins(const VolumeView& volume, int slabWidth);

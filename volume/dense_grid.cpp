@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <limits>
+#include <stdexcept>
 
 #include <openvdb/tools/Dense.h>
 #include <tbb/enumerable_thread_specific.h>
@@ -41,10 +42,10 @@ openvdb::FloatGrid::Ptr toGrid(const VolumeView& v, const ToGridOptions& o) {
     grid->insertMeta("isoforge_inside", openvdb::StringMetadata("above"));
     grid->insertMeta("source_format", openvdb::StringMetadata(v.format));
     const std::int64_t slab = 64, nz = v.dims[2];
-    const std::int64_t x0 = std::clamp<std::int64_t>(o.xBegin, 0, v.dims[0]),
-                       x1 = std::clamp<std::int64_t>(o.xEnd, 0, v.dims[0]);
+    const std::int64_t xo = v.xOffset, x0 = std::clamp<std::int64_t>(o.xBegin, xo, xo + v.dims[0]),
+                       x1 = std::clamp<std::int64_t>(o.xEnd, xo, xo + v.dims[0]);
     if (count == 0 || x1 <= x0) return grid;
-    const bool whole = x0 == 0 && x1 == v.dims[0];
+    const bool whole = x0 == xo && x1 == xo + v.dims[0];
     std::vector<float> part;  // an x range is not contiguous: copied a run of slices at a time
     if (o.progress) o.progress->begin("converting to a sparse grid");
     for (std::int64_t z0 = 0; z0 < nz; z0 += slab) {
@@ -57,7 +58,7 @@ openvdb::FloatGrid::Ptr toGrid(const VolumeView& v, const ToGridOptions& o) {
             float* out = part.data();
             for (std::int64_t k = z0; k <= z1; ++k)
                 for (std::int64_t j = 0; j < v.dims[1]; ++j, out += x1 - x0) {
-                    const float* row = v.values + std::size_t((k * v.dims[1] + j) * v.dims[0] + x0);
+                    const float* row = v.values + std::size_t((k * v.dims[1] + j) * v.dims[0] + x0 - xo);
                     std::copy(row, row + (x1 - x0), out);
                 }
             data = part.data();
@@ -75,6 +76,7 @@ openvdb::FloatGrid::Ptr toGrid(const VolumeView& v, const ToGridOptions& o) {
 openvdb::FloatGrid::Ptr toGridNearLevel(const VolumeView& v, float level, bool insideAbove,
                                         std::pair<float, float>* range) {
     initializeOpenVdb();
+    if (v.xOffset != 0) throw std::invalid_argument("toGridNearLevel takes a whole volume (xOffset 0)");
     const std::int64_t nx = v.dims[0], ny = v.dims[1], nz = v.dims[2];
     if (nx <= 0 || ny <= 0 || nz <= 0) {
         if (range) *range = {0.f, 0.f};

@@ -32,6 +32,9 @@ struct VolumeView {
     std::array<std::int64_t, 3> dims{0, 0, 0};
     glm::dmat4 indexToWorld{1.0};
     std::string format;  ///< for the grid's metadata
+    /// The values are x indices [xOffset, xOffset + dims[0]) of a wider volume (a slab of it read alone,
+    /// volume/voxel_source.h); toGrid places them there. toGridNearLevel takes whole volumes only.
+    std::int64_t xOffset = 0;
 };
 /// The same from a view: read in place, no copy of the voxels.
 openvdb::FloatGrid::Ptr toGrid(const VolumeView& volume, const ToGridOptions& options = {});

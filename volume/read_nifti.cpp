@@ -96,10 +96,17 @@ int niftiVersion(const std::filesystem::path& path) {
     return le == 540 || be == 540 ? 2 : 1;
 }
 
+bool scaled(const nifti_image& h) {
+    return h.scl_slope != 0.0 && std::isfinite(h.scl_slope) && (h.scl_slope != 1.0 || h.scl_inter != 0.0);
+}
+
 }  // namespace
 
-DenseVolume readNifti(const std::filesystem::path& path) {
-    std::lock_guard<std::mutex> lock(niftiMutex());
+namespace {
+
+/// The header of a NIfTI file (niftilib's, voxels not read) and what it says: `v` gets everything but the
+/// values (the scaling only as a note).
+NiftiPtr readHeader(const std::filesystem::path& path, DenseVolume& v) {
     nifti_set_debug_level(0);
     NiftiPtr header(nifti_image_read(path.c_str(), 0));
     if (!header)
@@ -116,33 +123,11 @@ DenseVolume readNifti(const std::filesystem::path& path) {
         if (h.dim[0] >= d && h.dim[d] > 1)
             throw IoError(path.string() + ": a " + std::to_string(h.dim[0]) + "D image (dim[" + std::to_string(d) +
                           "] = " + std::to_string(h.dim[d]) + "); only 3D volumes are supported");
-    DenseVolume v;
     v.dims = {h.nx, std::max<std::int64_t>(h.ny, 1), std::max<std::int64_t>(h.nz, 1)};
-    checkVolumeSize(path, v.dims);
-    // Counted before loading (decompressing .gz twice): niftilib accepts a gzip stream that ends early and
-    // leaves the rest of the voxels as they were (EveryCutOfEveryFormatIsAnErrorNotACrash shows it).
-    const std::uint64_t need = std::uint64_t(h.nvox) * std::uint64_t(h.nbyper);
-    bool streamError = false;
-    const std::uint64_t have =
-        availableBytes(h.iname ? h.iname : path.c_str(), std::uint64_t(h.iname_offset), need, &streamError);
-    if (have < need)
-        throw IoError(path.string() + ": the header promises " + std::to_string(v.dims[0]) + " x " +
-                      std::to_string(v.dims[1]) + " x " + std::to_string(v.dims[2]) + " " + type + " voxels (" +
-                      std::to_string(need) + " bytes from offset " + std::to_string(h.iname_offset) +
-                      ") but the file holds " + std::to_string(have) +
-                      (streamError ? " before its gzip stream breaks off (truncated or corrupt .gz)" : ""));
-    if (nifti_image_load(header.get()) != 0 || !h.data)
-        throw IoError(path.string() + ": niftilib could not read the voxel data");
-
-    resizeLarge(v.values, std::size_t(v.voxelCount()));
-    // nifti_image_load leaves the data in native byte order.
-    convertVoxels(h.data, type, std::endian::native == std::endian::big, v.voxelCount(), v.values.data());
-    if (h.scl_slope != 0.0 && std::isfinite(h.scl_slope) && (h.scl_slope != 1.0 || h.scl_inter != 0.0)) {
-        const auto slope = float(h.scl_slope), inter = float(std::isfinite(h.scl_inter) ? h.scl_inter : 0.0);
-        for (float& x : v.values) x = x * slope + inter;
+    checkVolumeDims(path, v.dims);
+    if (scaled(h))
         v.notes.push_back("scaled by scl_slope " + std::to_string(h.scl_slope) + ", scl_inter " +
                           std::to_string(h.scl_inter));
-    }
     // sform if set, else qform, else pixdim scaling; RAS -> LPS.
     nifti_dmat44 m{};
     if (h.sform_code > 0) {
@@ -164,7 +149,67 @@ DenseVolume readNifti(const std::filesystem::path& path) {
     v.format = niftiVersion(path) == 2 ? "NIfTI-2" : "NIfTI-1";
     v.storedType = type;
     if (h.descrip[0]) v.notes.push_back(std::string("description: ") + std::string(h.descrip, strnlen(h.descrip, 80)));
+    return header;
+}
+
+}  // namespace
+
+DenseVolume readNifti(const std::filesystem::path& path) {
+    std::lock_guard<std::mutex> lock(niftiMutex());
+    DenseVolume v;
+    NiftiPtr header = readHeader(path, v);
+    nifti_image& h = *header;
+    checkVolumeSize(path, v.dims);
+    const std::string& type = v.storedType;
+    // Counted before loading (decompressing .gz twice): niftilib accepts a gzip stream that ends early and
+    // leaves the rest of the voxels as they were (EveryCutOfEveryFormatIsAnErrorNotACrash shows it).
+    const std::uint64_t need = std::uint64_t(h.nvox) * std::uint64_t(h.nbyper);
+    bool streamError = false;
+    const std::uint64_t have =
+        availableBytes(h.iname ? h.iname : path.c_str(), std::uint64_t(h.iname_offset), need, &streamError);
+    if (have < need)
+        throw IoError(path.string() + ": the header promises " + std::to_string(v.dims[0]) + " x " +
+                      std::to_string(v.dims[1]) + " x " + std::to_string(v.dims[2]) + " " + type + " voxels (" +
+                      std::to_string(need) + " bytes from offset " + std::to_string(h.iname_offset) +
+                      ") but the file holds " + std::to_string(have) +
+                      (streamError ? " before its gzip stream breaks off (truncated or corrupt .gz)" : ""));
+    if (nifti_image_load(header.get()) != 0 || !h.data)
+        throw IoError(path.string() + ": niftilib could not read the voxel data");
+
+    resizeLarge(v.values, std::size_t(v.voxelCount()));
+    // nifti_image_load leaves the data in native byte order.
+    convertVoxels(h.data, type, std::endian::native == std::endian::big, v.voxelCount(), v.values.data());
+    if (scaled(h)) {
+        const auto slope = float(h.scl_slope), inter = float(std::isfinite(h.scl_inter) ? h.scl_inter : 0.0);
+        for (float& x : v.values) x = x * slope + inter;
+    }
     return v;
+}
+
+VoxelSource niftiSource(const std::filesystem::path& path) {
+    std::lock_guard<std::mutex> lock(niftiMutex());
+    VoxelSource s;
+    NiftiPtr header = readHeader(path, s.header);
+    const nifti_image& h = *header;
+    VoxelSource::Part p;
+    p.file = h.iname ? std::filesystem::path(h.iname) : path;
+    p.bytes = std::uint64_t(h.nvox) * std::uint64_t(h.nbyper);
+    // A gzip file (.nii.gz, or a .img.gz pair) is one stream: the voxels start iname_offset bytes into it.
+    unsigned char magic[2] = {0, 0};
+    if (std::FILE* f = std::fopen(p.file.c_str(), "rb")) {
+        if (std::fread(magic, 1, 2, f) != 2) magic[0] = 0;
+        std::fclose(f);
+    }
+    p.compressed = magic[0] == 0x1f && magic[1] == 0x8b;
+    (p.compressed ? p.skip : p.offset) = std::uint64_t(h.iname_offset);
+    s.parts.push_back(p);
+    // niftilib reports the file's byte order as byteorder; its swapsize says whether it differs from ours.
+    s.bigEndian = h.byteorder == 2;  // MSB_FIRST (niftilib keeps its name to itself)
+    if (scaled(h)) {
+        s.slope = float(h.scl_slope);
+        s.intercept = float(std::isfinite(h.scl_inter) ? h.scl_inter : 0.0);
+    }
+    return s;
 }
 
 }  // namespace isoforge::volume::detail

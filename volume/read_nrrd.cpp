@@ -1,9 +1,12 @@
 // NRRD through teem's nrrd library: attached and detached headers (.nrrd, .nhdr), multi-file data
 // ("data file: quarter.%d 1 93 1"), raw, gzip and other encodings, space directions and origin.
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <memory>
 #include <mutex>
+#include <optional>
 
 #include <teem/air.h>
 #include <teem/biff.h>
@@ -61,33 +64,35 @@ std::string biffMessage() {
 
 }  // namespace
 
-DenseVolume readNrrd(const std::filesystem::path& path) {
-    static std::mutex biffMutex;  // biff's error stack is global
-    std::lock_guard<std::mutex> lock(biffMutex);
-    std::unique_ptr<Nrrd, NrrdNuke> n(nrrdNew());
-    if (nrrdLoad(n.get(), path.c_str(), nullptr))
-        throw IoError(path.string() + ": cannot read NRRD:\n  " + biffMessage());
-    if (n->dim != 3 && n->dim != 2)
-        throw IoError(path.string() + ": a " + std::to_string(n->dim) +
-                      "-dimensional NRRD; expected a 2D or 3D volume");
-    const std::string type = typeName(n->type);
+namespace {
+
+std::mutex& biffMutex() {  // biff's error stack is global
+    static std::mutex m;
+    return m;
+}
+
+struct IoStateNix {
+    void operator()(NrrdIoState* n) const { nrrdIoStateNix(n); }
+};
+
+/// What a loaded (or header-only) nrrd says: `v` gets everything but the values.
+void describe(const std::filesystem::path& path, const Nrrd& n, DenseVolume& v) {
+    if (n.dim != 3 && n.dim != 2)
+        throw IoError(path.string() + ": a " + std::to_string(n.dim) + "-dimensional NRRD; expected a 2D or 3D volume");
+    const std::string type = typeName(n.type);
     if (type.empty()) throw IoError(path.string() + ": NRRD type 'block' is not a scalar type");
-    DenseVolume v;
     v.format = "NRRD";
     v.storedType = type;
-    v.dims = {std::int64_t(n->axis[0].size), std::int64_t(n->axis[1].size),
-              n->dim == 3 ? std::int64_t(n->axis[2].size) : 1};
-    checkVolumeSize(path, v.dims);
-    resizeLarge(v.values, std::size_t(v.voxelCount()));
-    // teem has decoded and byte-swapped the data to native order: convert without swapping.
-    convertVoxels(n->data, type, std::endian::native == std::endian::big, v.voxelCount(), v.values.data());
+    v.dims = {std::int64_t(n.axis[0].size), std::int64_t(n.axis[1].size),
+              n.dim == 3 ? std::int64_t(n.axis[2].size) : 1};
+    checkVolumeDims(path, v.dims);
 
     // Geometry: space directions and origin when the file has a space, else spacings.
     glm::dmat4 m(1.0);
-    if (n->spaceDim == 3) {
+    if (n.spaceDim == 3) {
         // Flip the world axes of the file's space into LPS.
         glm::dvec3 toLps(1.0);
-        switch (n->space) {
+        switch (n.space) {
             case nrrdSpaceRightAnteriorSuperior:
                 toLps = {-1, -1, 1};
                 break;
@@ -97,24 +102,122 @@ DenseVolume readNrrd(const std::filesystem::path& path) {
             default:
                 break;  // LPS, scanner-xyz (= LPS), 3D-right/left-handed: taken as they are
         }
-        for (unsigned a = 0; a < n->dim; ++a) {
+        for (unsigned a = 0; a < n.dim; ++a) {
             // An axis without a space direction ("spacings:" given instead) runs along its world axis.
-            const bool given = std::isfinite(n->axis[a].spaceDirection[0]);
-            const double s = std::isfinite(n->axis[a].spacing) && n->axis[a].spacing > 0 ? n->axis[a].spacing : 1.0;
+            const bool given = std::isfinite(n.axis[a].spaceDirection[0]);
+            const double s = std::isfinite(n.axis[a].spacing) && n.axis[a].spacing > 0 ? n.axis[a].spacing : 1.0;
             for (int c = 0; c < 3; ++c)
-                m[int(a)][c] = given ? n->axis[a].spaceDirection[c] * toLps[c] : (int(a) == c ? s : 0.0);
+                m[int(a)][c] = given ? n.axis[a].spaceDirection[c] * toLps[c] : (int(a) == c ? s : 0.0);
         }
-        for (int c = 0; c < 3; ++c) m[3][c] = std::isfinite(n->spaceOrigin[c]) ? n->spaceOrigin[c] * toLps[c] : 0.0;
-        v.notes.push_back(std::string("space: ") + airEnumStr(nrrdSpace, n->space));
+        for (int c = 0; c < 3; ++c) m[3][c] = std::isfinite(n.spaceOrigin[c]) ? n.spaceOrigin[c] * toLps[c] : 0.0;
+        v.notes.push_back(std::string("space: ") + airEnumStr(nrrdSpace, n.space));
     } else {
-        for (unsigned a = 0; a < n->dim; ++a) {
-            const double s = n->axis[a].spacing;
+        for (unsigned a = 0; a < n.dim; ++a) {
+            const double s = n.axis[a].spacing;
             m[int(a)][int(a)] = std::isfinite(s) && s > 0 ? s : 1.0;
         }
         v.notes.push_back("no space directions: axes from the spacings alone");
     }
     v.indexToWorld = m;
+}
+
+/// The offset just past `lines` line ends from `from` in `file` (a NRRD header's blank line: `blank`).
+std::uint64_t skipLines(const std::filesystem::path& file, std::uint64_t from, unsigned lines, bool blank) {
+    std::ifstream in(file, std::ios::binary);
+    if (!in) throw IoError(file.string() + ": cannot open the voxel data");
+    in.seekg(std::streamoff(from));
+    std::uint64_t at = from;
+    bool lineEmpty = true;  // blank: the header ends at the first line holding nothing (or only "\r")
+    char c;
+    while (lines > 0 || blank) {
+        if (!in.get(c)) throw IoError(file.string() + ": the file ends before its voxel data");
+        ++at;
+        if (c == '\n') {
+            if (blank && lineEmpty) break;
+            if (!blank) --lines;
+            lineEmpty = true;
+        } else if (c != '\r') {
+            lineEmpty = false;
+        }
+    }
+    return at;
+}
+
+}  // namespace
+
+DenseVolume readNrrd(const std::filesystem::path& path) {
+    std::lock_guard<std::mutex> lock(biffMutex());
+    std::unique_ptr<Nrrd, NrrdNuke> n(nrrdNew());
+    if (nrrdLoad(n.get(), path.c_str(), nullptr))
+        throw IoError(path.string() + ": cannot read NRRD:\n  " + biffMessage());
+    DenseVolume v;
+    describe(path, *n, v);
+    checkVolumeSize(path, v.dims);
+    resizeLarge(v.values, std::size_t(v.voxelCount()));
+    // teem has decoded and byte-swapped the data to native order: convert without swapping.
+    convertVoxels(n->data, v.storedType, std::endian::native == std::endian::big, v.voxelCount(), v.values.data());
     return v;
+}
+
+std::optional<VoxelSource> nrrdSource(const std::filesystem::path& path) {
+    std::lock_guard<std::mutex> lock(biffMutex());
+    std::unique_ptr<Nrrd, NrrdNuke> n(nrrdNew());
+    std::unique_ptr<NrrdIoState, IoStateNix> nio(nrrdIoStateNew());
+    nrrdIoStateSet(nio.get(), nrrdIoStateSkipData, AIR_TRUE);
+    if (nrrdLoad(n.get(), path.c_str(), nio.get()))
+        throw IoError(path.string() + ": cannot read NRRD:\n  " + biffMessage());
+    VoxelSource s;
+    describe(path, *n, s.header);
+    const std::string encoding = nio->encoding ? nio->encoding->name : "";
+    if ((encoding != "raw" && encoding != "gzip") || nio->dataFSkip) return std::nullopt;
+    const bool gzip = encoding == "gzip";
+    s.bigEndian = nio->endian == airEndianBig;
+    // The data files: a numbered series ("quarter.%d 1 93 1"), a list, one file, or this one (attached).
+    std::vector<std::filesystem::path> files;
+    const std::filesystem::path dir = path.parent_path();
+    const auto relative = [&](const std::string& name) {
+        const std::filesystem::path p(name);
+        return p.is_absolute() ? p : dir / p;
+    };
+    if (nio->dataFNFormat) {
+        if (nio->dataFNStep == 0) return std::nullopt;
+        for (int i = nio->dataFNMin; nio->dataFNStep > 0 ? i <= nio->dataFNMax : i >= nio->dataFNMax;
+             i += nio->dataFNStep) {
+            char name[4096];
+            std::snprintf(name, sizeof name, nio->dataFNFormat, i);
+            files.push_back(relative(name));
+        }
+    } else if (nio->dataFNArr && nio->dataFNArr->len > 0) {
+        for (unsigned i = 0; i < nio->dataFNArr->len; ++i) files.push_back(relative(nio->dataFN[i]));
+    }
+    const bool attached = files.empty();
+    if (attached) files.push_back(path);
+    const std::uint64_t total = std::uint64_t(s.header.voxelCount()) * std::uint64_t(typeSize(s.header.storedType));
+    if (total % files.size()) return std::nullopt;
+    for (const std::filesystem::path& f : files) {
+        VoxelSource::Part p;
+        p.file = f;
+        p.bytes = total / files.size();
+        p.compressed = gzip;
+        std::uint64_t at = attached ? skipLines(f, 0, 0, true) : 0;
+        at = skipLines(f, at, nio->lineSkip, false);
+        if (nio->byteSkip == -1) {
+            if (gzip) return std::nullopt;
+            std::error_code ec;
+            const std::uint64_t size = std::filesystem::file_size(f, ec);
+            if (ec || size < p.bytes)
+                throw IoError(f.string() + ": holds " + std::to_string(ec ? 0 : size) + " bytes, fewer than the " +
+                              std::to_string(p.bytes) + " voxel bytes the header promises");
+            at = size - p.bytes;  // "byte skip: -1": the voxels end the file
+        } else if (gzip) {
+            p.skip = std::uint64_t(nio->byteSkip);
+        } else {
+            at += std::uint64_t(nio->byteSkip);
+        }
+        p.offset = at;
+        s.parts.push_back(p);
+    }
+    return s;
 }
 
 }  // namespace isoforge::volume::detail

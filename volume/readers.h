@@ -4,10 +4,12 @@
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "volume/dense_volume.h"
+#include "volume/voxel_source.h"
 
 namespace isoforge::volume::detail {
 
@@ -30,6 +32,19 @@ std::string serializeVolume(const DenseVolume& v);
 DenseVolume deserializeVolume(const std::string& bytes, const std::string& what);
 DenseVolume readRaw(const std::filesystem::path& path, const VolumeReadOptions& o);
 DenseVolume readVdbVolume(const std::filesystem::path& path, const std::string& grid);
+
+/// Where the voxels of each format are, from the header alone (volume/voxel_source.h).
+VoxelSource niftiSource(const std::filesystem::path& path);
+std::optional<VoxelSource> nrrdSource(const std::filesystem::path& path);  ///< nullopt: not raw or gzip
+VoxelSource metaImageSource(const std::filesystem::path& path);
+VoxelSource rawSource(const std::filesystem::path& path, const VolumeReadOptions& o);
+
+/// lo = min(lo, v), hi = max(hi, v) over the values in order, NaNs never taken (unless the first value, the
+/// start of lo and hi, is one): a volume read in runs of slices gets the range of the whole.
+void extendRange(const float* values, std::size_t count, float& lo, float& hi);
+
+/// Refuses dimensions outside 1 .. 2^20.
+void checkVolumeDims(const std::filesystem::path& path, const std::array<std::int64_t, 3>& dims);
 
 /// Refuses volumes whose float copy would not fit in half of this machine's memory, with the estimate.
 void checkVolumeSize(const std::filesystem::path& path, const std::array<std::int64_t, 3>& dims);

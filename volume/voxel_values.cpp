@@ -15,11 +15,25 @@
 
 namespace isoforge::volume::detail {
 
-void checkVolumeSize(const std::filesystem::path& path, const std::array<std::int64_t, 3>& dims) {
+void extendRange(const float* v, std::size_t count, float& lo, float& hi) {
+    float a = lo, b = hi;
+    for (std::size_t i = 0; i < count; ++i) {
+        a = v[i] < a ? v[i] : a;
+        b = b < v[i] ? v[i] : b;
+    }
+    lo = a;
+    hi = b;
+}
+
+void checkVolumeDims(const std::filesystem::path& path, const std::array<std::int64_t, 3>& dims) {
     for (std::int64_t d : dims)
         if (d < 1 || d > (1 << 20))
             throw IoError(path.string() + ": dimensions " + std::to_string(dims[0]) + " x " + std::to_string(dims[1]) +
                           " x " + std::to_string(dims[2]) + " are not from 1 to 1,048,576");
+}
+
+void checkVolumeSize(const std::filesystem::path& path, const std::array<std::int64_t, 3>& dims) {
+    checkVolumeDims(path, dims);
     const double bytes = double(dims[0]) * double(dims[1]) * double(dims[2]) * 4.0;
     if (bytes > double(physicalMemory()) / 2)
         throw ResourceError(path.string() + ": " + std::to_string(dims[0]) + " x " + std::to_string(dims[1]) + " x " +

@@ -1,0 +1,222 @@
+// Volume files read a run of slices at a time (volume/voxel_source.h): every streamable format gives
+// readVolume's voxels and range, cut and corrupt data is an error, and meshing a file in passes gives
+// the whole grid's mesh, byte for byte.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <fstream>
+
+#include <zlib.h>
+
+#include "core/error.h"
+#include "test_util.h"
+#include "volume/bricked.h"
+#include "volume/dense_grid.h"
+#include "volume/marching_cubes.h"
+#include "volume/voxel_source.h"
+
+using namespace isoforge;
+namespace fs = std::filesystem;
+
+namespace {
+
+void writeFile(const fs::path& p, const std::string& bytes) {
+    std::ofstream(p, std::ios::binary).write(bytes.data(), std::streamsize(bytes.size()));
+}
+
+std::string readFile(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+std::string gzipped(const std::string& bytes) {
+    z_stream z{};
+    deflateInit2(&z, 6, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY);  // a gzip wrapper
+    std::string out(deflateBound(&z, uLong(bytes.size())) + 32, '\0');
+    z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(bytes.data()));
+    z.avail_in = uInt(bytes.size());
+    z.next_out = reinterpret_cast<Bytef*>(out.data());
+    z.avail_out = uInt(out.size());
+    deflate(&z, Z_FINISH);
+    out.resize(z.total_out);
+    deflateEnd(&z);
+    return out;
+}
+
+/// Streams every slice of `path` in runs of `run` slices, and checks them, the header and the x ranges
+/// against readVolume's.
+void expectReadVolumesVoxels(const fs::path& path, const volume::VolumeReadOptions& o = {}) {
+    SCOPED_TRACE(path.string());
+    const volume::DenseVolume whole = volume::readVolume(path, o);
+    const std::optional<volume::VoxelSource> source = volume::voxelSource(path, o);
+    ASSERT_TRUE(source);
+    const volume::DenseVolume& h = source->header;
+    EXPECT_EQ(h.dims, whole.dims);
+    EXPECT_EQ(h.format, whole.format);
+    EXPECT_EQ(h.storedType, whole.storedType);
+    EXPECT_EQ(h.notes, whole.notes);
+    EXPECT_TRUE(h.indexToWorld == whole.indexToWorld);
+    for (std::int64_t run : {std::int64_t{1}, std::int64_t{7}, whole.dims[2]}) {
+        volume::SliceStream stream(*source);
+        std::vector<float> all;
+        std::vector<float> buffer;
+        for (std::int64_t z = 0; z < whole.dims[2]; z += run) {
+            const std::int64_t n = std::min(run, whole.dims[2] - z);
+            buffer.resize(std::size_t(whole.dims[0] * whole.dims[1] * n));
+            stream.read(n, buffer.data());
+            all.insert(all.end(), buffer.begin(), buffer.end());
+        }
+        ASSERT_EQ(all.size(), whole.values.size());
+        EXPECT_EQ(std::memcmp(all.data(), whole.values.data(), all.size() * sizeof(float)), 0) << "run " << run;
+    }
+    const std::int64_t nx = whole.dims[0];
+    const volume::XRanges r = volume::readXRanges(*source, {{-8, nx / 3}, {nx / 2, nx + 16}, {nx, nx + 8}});
+    EXPECT_EQ(r.range, whole.range());
+    ASSERT_EQ(r.values.size(), 3u);
+    EXPECT_EQ(r.begin, (std::vector<std::int64_t>{0, nx / 2, nx}));
+    EXPECT_TRUE(r.values[2].empty());
+    for (int i = 0; i < 2; ++i) {
+        const std::int64_t x0 = r.begin[std::size_t(i)], w = i == 0 ? nx / 3 : nx - nx / 2;
+        ASSERT_EQ(r.values[std::size_t(i)].size(), std::size_t(w * whole.dims[1] * whole.dims[2]));
+        bool same = true;
+        for (std::int64_t k = 0; k < whole.dims[2]; ++k)
+            for (std::int64_t j = 0; j < whole.dims[1]; ++j)
+                for (std::int64_t x = 0; x < w; ++x)
+                    same = same && r.values[std::size_t(i)][std::size_t((k * whole.dims[1] + j) * w + x)] ==
+                                       whole.at(x0 + x, j, k);
+        EXPECT_TRUE(same) << "range " << i;
+    }
+}
+
+}  // namespace
+
+TEST(VoxelSource, EveryStreamableFormatGivesReadVolumesVoxels) {
+    const fs::path v = test::sharedData() / "volumes";
+    expectReadVolumesVoxels(v / "flair-oblique-nrrd/FLAIR.nrrd");      // NRRD, attached, gzip
+    expectReadVolumesVoxels(v / "headsq-ct-nrrd/quarter.nhdr");        // NRRD, 93 data files, raw
+    expectReadVolumesVoxels(v / "colin27-mri-atlases/ch2.nii.gz");     // NIfTI-1, gzip
+    expectReadVolumesVoxels(v / "frog-tissue-labels/frogtissue.mhd");  // MetaImage, zlib data file
+    expectReadVolumesVoxels(v / "head-mr-small/HeadMRVolume.mhd");     // MetaImage, raw data file
+    EXPECT_FALSE(volume::voxelSource(v / "ct-abdomen-dicom/series"));  // DICOM: read whole
+
+    // What the bundled files do not show: a float NIfTI uncompressed, big-endian raw voxels after a
+    // header, NRRD's byte skips (-1: the voxels end the file; on gzip data: decoded bytes), line skips.
+    const fs::path dir = test::scratchDir("voxel-source");
+    volume::DenseVolume ch2 = volume::readVolume(v / "colin27-mri-atlases/ch2.nii.gz");
+    for (float& x : ch2.values) x = x * 0.37f - 12.f;
+    volume::writeNifti(dir / "ch2.nii", ch2);
+    expectReadVolumesVoxels(dir / "ch2.nii");
+
+    std::string big;  // 37 x 23 x 19 int16, big-endian, after 100 bytes of someone's header
+    for (int k = 0; k < 19; ++k)
+        for (int j = 0; j < 23; ++j)
+            for (int i = 0; i < 37; ++i) {
+                const auto s = std::int16_t(i * 31 - j * j + k * 700 - 4000);
+                big += char((std::uint16_t(s) >> 8) & 0xff);
+                big += char(s & 0xff);
+            }
+    writeFile(dir / "vox.raw", std::string(100, 'h') + big);
+    volume::VolumeReadOptions raw;
+    raw.rawDims = {37, 23, 19};
+    raw.rawType = "int16";
+    raw.rawBigEndian = true;
+    raw.rawOffset = 100;
+    raw.rawSpacing = {0.5, 0.7, 2.0};
+    expectReadVolumesVoxels(dir / "vox.raw", raw);
+
+    writeFile(dir / "tail.bin", "two lines\nof junk\n" + std::string(55, 'x') + big);
+    writeFile(dir / "tail.nhdr",
+              "NRRD0004\ntype: short\ndimension: 3\nsizes: 37 23 19\nspacings: 1 2 3\nendian: big\n"
+              "encoding: raw\nbyte skip: -1\ndata file: tail.bin\n");
+    expectReadVolumesVoxels(dir / "tail.nhdr");
+    writeFile(dir / "skips.nrrd",
+              "NRRD0004\r\ntype: short\r\ndimension: 3\r\nsizes: 37 23 19\r\nendian: big\r\nencoding: gzip\r\n"
+              "byte skip: 6\r\n\r\n" +
+                  gzipped("junk!!" + big));
+    expectReadVolumesVoxels(dir / "skips.nrrd");
+    writeFile(dir / "lines.bin", "# a line\n# another\n" + big);
+    writeFile(dir / "lines.nhdr",
+              "NRRD0004\ntype: short\ndimension: 3\nsizes: 37 23 19\nendian: big\nencoding: raw\nline skip: 2\n"
+              "data file: lines.bin\n");
+    expectReadVolumesVoxels(dir / "lines.nhdr");
+    fs::remove_all(dir);
+}
+
+TEST(VoxelSource, CutAndCorruptDataIsAnErrorNamingTheFile) {
+    const fs::path v = test::sharedData() / "volumes";
+    const fs::path dir = test::scratchDir("voxel-source-bad");
+    const std::string flair = readFile(v / "flair-oblique-nrrd/FLAIR.nrrd");
+    const std::size_t header = flair.find("\n\n") + 2;
+    const auto expectError = [&](const fs::path& p, const std::string& words) {
+        SCOPED_TRACE(p.string());
+        std::optional<volume::VoxelSource> s;
+        try {
+            s = volume::voxelSource(p);
+            ASSERT_TRUE(s);
+            volume::readXRanges(*s, {{0, 8}});
+            ADD_FAILURE() << "no error";
+        } catch (const IoError& e) {
+            EXPECT_NE(std::string(e.what()).find(p.filename().string()), std::string::npos) << e.what();
+            EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+        }
+    };
+    writeFile(dir / "cut.nrrd", flair.substr(0, header + (flair.size() - header) * 3 / 5));
+    expectError(dir / "cut.nrrd", "ends");
+    std::string zeros = flair;
+    std::fill(zeros.begin() + std::ptrdiff_t(header), zeros.begin() + std::ptrdiff_t(header + 64), '\0');
+    writeFile(dir / "zeros.nrrd", zeros);
+    expectError(dir / "zeros.nrrd", "corrupt");
+    // A raw data file shorter than its header says: refused before any voxel is read.
+    const std::string mhd = readFile(v / "head-mr-small/HeadMRVolume.mhd");
+    writeFile(dir / "short.mhd", mhd);
+    writeFile(dir / "HeadMRVolume.raw", readFile(v / "head-mr-small/HeadMRVolume.raw").substr(0, 1000));
+    EXPECT_THROW(volume::voxelSource(dir / "short.mhd"), IoError);
+    fs::remove_all(dir);
+}
+
+TEST(SlabsOfVolumes, AFileReadInPassesIsTheWholeGridsMesh) {
+    // The frog's 500 x 470 x 136 tissue labels: four slabs, read one per pass or all in one.
+    const fs::path path = test::sharedData() / "volumes/frog-tissue-labels/frogtissue.mhd";
+    const volume::DenseVolume v = volume::readVolume(path);
+    const std::optional<volume::VoxelSource> source = volume::voxelSource(path);
+    ASSERT_TRUE(source);
+    const openvdb::FloatGrid::Ptr whole = volume::toGrid(v);
+    for (bool normals : {false, true}) {
+        volume::MeshingOptions mo;
+        mo.isovalue = 3.5f;
+        mo.normals = normals;
+        const mesh::TriMesh expected = volume::extractIsosurface(*whole, mo);
+        ASSERT_GT(expected.triangles.size(), 10000u);
+        for (std::uint64_t buffer : {std::uint64_t{1}, std::uint64_t{1} << 34}) {
+            SCOPED_TRACE(std::string(normals ? "normals, " : "") + "buffer " + std::to_string(buffer));
+            volume::SlabOptions so;
+            so.isovalue = mo.isovalue;
+            so.normals = normals;
+            volume::SlabStats st;
+            volume::SourceSlabStats ss;
+            mesh::TriMesh pieces;
+            volume::meshVolumeSourceBySlabs(
+                *source, so, buffer,
+                [&](const volume::SlabPiece& p) {
+                    EXPECT_EQ(p.vertexBase, pieces.positions.size());
+                    pieces.positions.insert(pieces.positions.end(), p.mesh.positions.begin(),
+                                            p.mesh.positions.begin() + std::ptrdiff_t(p.owned));
+                    if (normals)
+                        pieces.normals.insert(pieces.normals.end(), p.mesh.normals.begin(),
+                                              p.mesh.normals.begin() + std::ptrdiff_t(p.owned));
+                    pieces.triangles.insert(pieces.triangles.end(), p.mesh.triangles.begin(), p.mesh.triangles.end());
+                },
+                &st, &ss);
+            EXPECT_EQ(st.slabs, 4u);
+            EXPECT_EQ(ss.passes, buffer == 1 ? 4u : 1u);
+            EXPECT_EQ(ss.range, v.range());
+            // One slab per pass holds one slab's x range and halo (152 columns), not the volume.
+            if (buffer == 1) {
+                EXPECT_EQ(ss.bufferBytes, std::uint64_t(152) * 470 * 136 * 4);
+            }
+            EXPECT_TRUE(pieces.positions == expected.positions);
+            EXPECT_TRUE(pieces.normals == expected.normals);
+            EXPECT_TRUE(pieces.triangles == expected.triangles);
+        }
+    }
+}
