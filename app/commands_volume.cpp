@@ -133,8 +133,9 @@ openvdb::FloatGrid::Ptr sampleField(const implicit::FieldPtr& field, volume::Sam
 
 namespace {
 
-/// `mesh VOLUME --memory`: a dense volume converted and meshed a slab at a time (the volume itself is
-/// held), or a .vdb grid meshed a slab at a time (the grid is held, the mesh is not).
+/// `mesh VOLUME --memory`: a volume file read as it streams, keeping the blocks near the iso-value of a
+/// run of slabs at a time; a DICOM series converted and meshed a slab at a time (the volume itself is
+/// held); or a .vdb grid meshed a slab at a time (the grid is held, the mesh is not).
 int meshVolumeFileBySlabs(const std::string& input, const std::string& gridName, const VolumeInput& vin, int smooth,
                           bool sharp, bool maxError, SlabMeshJob job, const GlobalOptions& g) {
     if (input.empty()) throw CLI::ValidationError("input", "give a volume file, a .vm model, --shape or --expr");
@@ -150,7 +151,7 @@ int meshVolumeFileBySlabs(const std::string& input, const std::string& gridName,
     volume::DenseVolume dense;
     std::optional<volume::VoxelSource> source;
     if (isDenseVolumeFile(input)) {
-        // Read a run of slabs at a time where the format allows it (never the whole volume), else whole.
+        // Streamed where the format allows it (never the whole volume), else read whole.
         source = volume::voxelSource(input, readOptions(vin));
         if (source) {
             job.source = &*source;
@@ -165,11 +166,12 @@ int meshVolumeFileBySlabs(const std::string& input, const std::string& gridName,
     return meshBySlabsToFile(job, g);
 }
 
-/// True (and says so) when a volume file's voxels as floats would take more than half of this machine's
-/// memory, and the job can be meshed in slabs instead: a format read a run of slabs at a time, output
-/// that streams, nothing that looks across slabs. Reading it whole would be refused.
-bool volumeTooBigForMemory(const std::string& input, const VolumeInput& vin, int smooth, bool sharp, bool maxError,
-                           const std::string& output, const GlobalOptions& g) {
+/// True when a volume file is meshed as it streams (volume/near_level.h), never held whole: a format
+/// that streams, output that streams, nothing that looks across slabs or needs the whole mesh. The same
+/// bytes as reading it whole and meshing its grid, in a fraction of the time and memory (docs/scaling.md),
+/// so it is the default; says so when the volume's floats would not fit in half of this machine's memory.
+bool volumeStreams(const std::string& input, const VolumeInput& vin, int smooth, bool sharp, bool maxError,
+                   const std::string& output, const GlobalOptions& g) {
     if (!isDenseVolumeFile(input) || smooth > 0 || sharp || maxError || vin.tolerance > 0 ||
         !mesh::MeshStreamWriter::canStream(output))
         return false;
@@ -181,11 +183,10 @@ bool volumeTooBigForMemory(const std::string& input, const VolumeInput& vin, int
     }
     if (!source) return false;
     const double bytes = double(source->header.voxelCount()) * 4.0;
-    if (bytes <= double(volume::physicalMemory() / 2)) return false;
-    if (!g.quiet)
+    if (!g.quiet && bytes > double(volume::physicalMemory() / 2))
         std::printf(
-            "%s as floats would take about %s, more than half of this machine's memory: meshing in slabs "
-            "(as with --memory %s)\n",
+            "%s as floats would take about %s, more than half of this machine's memory: meshing it as it "
+            "streams (as with --memory %s)\n",
             input.c_str(), bytesText(bytes).c_str(), bytesText(double(volume::physicalMemory() / 2)).c_str());
     return true;
 }
@@ -307,11 +308,14 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
     cmd->add_flag("--index-space", a->indexSpace, "Positions in voxel units instead of world units");
     cmd->add_flag("--ascii", a->ascii, "ASCII PLY instead of binary");
     cmd->add_flag("--stats", a->stats, "Print timings and a topology check of the result");
-    cmd->add_option("--memory", a->memory,
-                    "Stay under this much memory (e.g. 4G, 512M) by meshing in slabs of 128 voxels, each sampled "
-                    "(or converted) and meshed, and written before the next; the same file as without it. Chosen by "
-                    "itself when a field's grid would not fit in half of this machine's memory. Volume files are "
-                    "read whole. .ply, .obj or .stl output (docs/scaling.md)");
+    cmd->add_option(
+        "--memory", a->memory,
+        "Stay under this much memory (e.g. 4G, 512M) by meshing in slabs of 128 voxels, each sampled "
+        "(or converted) and meshed, and written before the next; the same file as without it. Chosen by "
+        "itself when a field's grid would not fit in half of this machine's memory. Volume files (not DICOM) "
+        "are meshed as they stream, keeping only the blocks near the iso-value, whenever the output is "
+        ".ply, .obj or .stl and nothing needs the whole volume (--smooth, --tolerance, --sharp, "
+        "--max-error). .ply, .obj or .stl output (docs/scaling.md)");
     cmd->callback([&c, &g, a] {
         c.run = [&g, a] {
             if (!mesh::isMeshPath(a->output))
@@ -379,7 +383,7 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                 }
                 grid = sampleField(field, so, g, g.quiet ? nullptr : &progress, a->stats);
             } else if (memoryLimit > 0 ||
-                       volumeTooBigForMemory(a->input, a->volume, a->smooth, a->sharp, a->maxError > 0, a->output, g)) {
+                       volumeStreams(a->input, a->volume, a->smooth, a->sharp, a->maxError > 0, a->output, g)) {
                 if (memoryLimit == 0) memoryLimit = volume::physicalMemory() / 2;
                 return meshVolumeFileBySlabs(a->input, a->grid, a->volume, a->smooth, a->sharp, a->maxError > 0,
                                              slabJob(), g);

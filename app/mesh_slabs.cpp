@@ -12,6 +12,7 @@
 #include "volume/bricked.h"
 #include "volume/dense_grid.h"
 #include "volume/machine_memory.h"
+#include "volume/near_level.h"
 
 namespace isoforge::app {
 
@@ -32,20 +33,19 @@ int meshBySlabsToFile(const SlabMeshJob& job, const GlobalOptions& g) {
     if (job.memoryLimit < base + kMinimum)
         throw ResourceError("--memory " + mebibytes(job.memoryLimit) + " leaves nothing to mesh with: isoforge holds " +
                             mebibytes(base) + " before it starts; give at least " + mebibytes(base + kMinimum));
-    // A volume file read in passes: a third of the rest holds the voxels of the pass's slabs (as
-    // floats), and the rest a slab's grid (at most as large), its mesh and the writer's buffers.
-    const std::uint64_t voxelBytes = (job.memoryLimit - base) / 3;
-    if (job.source && volume::sourceSlabBytes(*job.source, 128) > voxelBytes) {
-        const std::uint64_t one = volume::sourceSlabBytes(*job.source, 128);
+    // A volume file: twelve of its slices are held while it streams past, and of the rest a third goes to
+    // the grid of a run of slabs (the blocks near the iso-value); the rest is a slab's mesh, the mesher's
+    // scratch and the writer's buffers, which for CT come to about twice the slab's grid.
+    const std::uint64_t window = job.source ? volume::nearLevelWindowBytes(*job.source) : 0;
+    if (job.source && base + window + kMinimum > job.memoryLimit) {
         const auto& d = job.source->header.dims;
-        throw ResourceError(job.what + ": one slab of its voxels (" +
-                            std::to_string(std::min<std::int64_t>(d[0], 152)) + " x " + std::to_string(d[1]) + " x " +
-                            std::to_string(d[2]) + " as floats) takes " + mebibytes(one) + ", and --memory " +
-                            mebibytes(job.memoryLimit) + " leaves " + mebibytes(voxelBytes) +
-                            " for them (a third of what isoforge does not hold already): "
-                            "raise --memory to at least " +
-                            mebibytes(base + 3 * one));
+        throw ResourceError(job.what + ": reading it holds 12 slices of " + std::to_string(d[0]) + " x " +
+                            std::to_string(d[1]) + " voxels (" + mebibytes(window) + "), and --memory " +
+                            mebibytes(job.memoryLimit) + " leaves " + mebibytes(job.memoryLimit - base) +
+                            " beyond what isoforge holds already: raise --memory to at least " +
+                            mebibytes(base + window + kMinimum));
     }
+    const std::uint64_t gridBudget = (job.memoryLimit - base - window) / 3;
     // The mesh goes to disk, twice over (scratch files, then the file): refuse what the disk cannot take.
     const double perVertex = 12.0 * (1 + job.normals) + 3 + 2 * 13.0;  // PLY: a vertex, two faces
     const double diskBytes = job.field ? 2 * volume::estimateSurfaceVoxels(*job.field, job.sample) * perVertex : 0;
@@ -89,7 +89,7 @@ int meshBySlabsToFile(const SlabMeshJob& job, const GlobalOptions& g) {
         if (job.field) {
             volume::meshBySlabs(job.field, so, sink, &st);
         } else if (job.source) {
-            volume::meshVolumeSourceBySlabs(*job.source, so, voxelBytes, sink, &st, &read);
+            volume::meshVolumeSourceBySlabs(*job.source, so, gridBudget, sink, &st, &read);
         } else if (job.volume) {
             volume::ToGridOptions go;
             go.background = job.volume->range().first;  // as the whole volume's grid has it
@@ -101,10 +101,12 @@ int meshBySlabsToFile(const SlabMeshJob& job, const GlobalOptions& g) {
         }
     } catch (const ResourceError& e) {
         if (std::string(e.what()).find("outgrew") == std::string::npos) throw;
+        const bool file = job.source != nullptr;
         throw ResourceError("a slab of " + job.what + " (" + std::to_string(so.slabWidth) +
                             " voxels thick) holds more surface than --memory " + mebibytes(job.memoryLimit) +
-                            " allows (its grid outgrew its share, " + bytesText(double(so.sample.memoryLimit)) +
-                            "): raise --memory or the voxel size");
+                            " allows (its grid" + (file ? " near the iso-value" : "") + " outgrew its share, " +
+                            bytesText(double(file ? gridBudget : so.sample.memoryLimit)) + "): raise --memory" +
+                            (file ? "" : " or the voxel size"));
     }
     const auto t1 = Clock::now();
     writer.commit();
@@ -116,10 +118,11 @@ int meshBySlabsToFile(const SlabMeshJob& job, const GlobalOptions& g) {
         const volume::DenseVolume& h = job.source->header;
         std::printf(
             "read %s (%s): %lld x %lld x %lld %s voxels, values %g .. %g, in %s pass%s over the file "
-            "(%s of voxels held at once) in %.3f s\n",
+            "(%s of slices and a grid of %s near the iso-value held) in %.3f s\n",
             job.what.c_str(), h.format.c_str(), (long long)h.dims[0], (long long)h.dims[1], (long long)h.dims[2],
             h.storedType.c_str(), double(read.range.first), double(read.range.second), withCommas(read.passes).c_str(),
-            read.passes == 1 ? "" : "es", mebibytes(read.bufferBytes).c_str(), read.secondsRead);
+            read.passes == 1 ? "" : "es", mebibytes(read.windowBytes).c_str(), mebibytes(read.gridBytes).c_str(),
+            read.secondsRead);
     }
     if (!g.quiet) {
         std::printf("meshed %s in %s slabs of %d voxels: %s vertices, %s triangles in %.3f s -> %s\n", job.what.c_str(),

@@ -14,7 +14,7 @@
 
 namespace isoforge::app {
 
-/// One of: a field (sampled a slab at a time), a volume file read a run of slabs at a time (never held
+/// One of: a field (sampled a slab at a time), a volume file streamed (never held
 /// whole), a dense volume (converted a slab at a time; the volume itself is held: DICOM), a grid already
 /// in memory (only the mesh is held a slab at a time).
 struct SlabMeshJob {

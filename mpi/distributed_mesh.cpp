@@ -24,23 +24,21 @@ void meshRun(const SlabSource& source, const volume::SlabOptions& options, const
                                             : volume::VolumeView{};
     volume::ToGridOptions grid;
     if (source.volume) grid.background = source.volume->range().first;  // the whole volume's, on every rank
-    volume::XRanges run;
+    openvdb::FloatGrid::Ptr near;
     if (source.file && count > 0) {
-        // One pass over the file: the run's x range with its halo (a block column below, two above),
-        // and the whole volume's range, whose minimum every rank takes as the background.
-        const auto t0 = Clock::now();
-        const volume::DenseVolume& h = source.file->header;
+        // One pass over the file: the grid of the blocks near the iso-value over the run's x range with
+        // its halo (a block column below, two above), and the whole volume's range.
         const std::int64_t x0 = origins[piece.firstSlab] - 8,
                            x1 = origins[piece.firstSlab + count - 1] + options.slabWidth + 16;
-        run = volume::readXRanges(*source.file, {{x0, x1}});
-        view = volume::VolumeView{run.values[0].data(),
-                                  {std::min(x1, h.dims[0]) - run.begin[0], h.dims[1], h.dims[2]},
-                                  h.indexToWorld,
-                                  h.format};
-        view.xOffset = run.begin[0];
-        grid.background = run.range.first;
-        piece.secondsRead = secondsSince(t0);
-        piece.bytesRead = run.values[0].size() * sizeof(float);
+        volume::NearLevelOptions no;
+        no.level = options.isovalue;
+        no.insideAbove = options.inside != volume::InsideSide::Below;  // Auto: a volume's grid says above
+        no.xBegin = x0;
+        no.xEnd = x1;
+        const volume::NearLevelGrid g = volume::nearLevelGrid(*source.file, no);
+        near = g.grid;
+        piece.secondsRead = g.seconds;
+        piece.bytesRead = g.windowBytes + g.gridBytes;
     }
     std::uint64_t local = 0;
     piece.slabs.resize(count);
@@ -51,7 +49,8 @@ void meshRun(const SlabSource& source, const volume::SlabOptions& options, const
         part.vertexBase = local;
         const bool first = s == 0, last = s + 1 == origins.size();
         part.owned =
-            source.volume || source.file
+            source.file ? volume::meshGridSlab(near, options, x0, x1, first, last, local, part.mesh, &piece.stats)
+            : source.volume
                 ? volume::meshVolumeSlab(view, grid, options, x0, x1, first, last, local, part.mesh, &piece.stats)
                 : volume::meshSlab(source.field, options, x0, x1, first, last, local, part.mesh, &piece.stats);
         ++piece.stats.slabs;

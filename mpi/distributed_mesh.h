@@ -38,12 +38,13 @@ struct RankPiece {
     volume::SlabStats stats;
     double secondsMpi = 0;             ///< time in MPI calls (the scans)
     std::uint64_t bytesExchanged = 0;  ///< bytes this rank sent in them
-    double secondsRead = 0;            ///< reading its slabs of a volume file
-    std::uint64_t bytesRead = 0;       ///< the voxels (floats) of them it held
+    double secondsRead = 0;            ///< reading a volume file and building its slabs' grid
+    std::uint64_t bytesRead = 0;       ///< the slices held meanwhile, and that grid
 };
 
-/// What the ranks mesh: a field (sampled a slab at a time), a volume file of which each rank reads the
-/// x range of its own slabs (and their halo), or a dense volume every rank holds (a DICOM series).
+/// What the ranks mesh: a field (sampled a slab at a time), a volume file of which each rank keeps the
+/// blocks near the iso-value in the x range of its own slabs (and their halo), or a dense volume every
+/// rank holds (a DICOM series).
 struct SlabSource {
     implicit::FieldPtr field;
     const volume::VoxelSource* file = nullptr;

@@ -126,8 +126,10 @@ int runMesh(const Args& a, MPI_Comm comm) {
             so.slabWidth, countText(allLeaves).c_str(), meshSeconds, writeSeconds, maxMpi, countText(allBytes).c_str(),
             countText(maxPeak >> 20).c_str());
         if (source.file)
-            std::printf("each rank read the x range of its slabs from the file: at most %s MiB of voxels on a rank\n",
-                        countText(maxRead >> 20).c_str());
+            std::printf(
+                "each rank read the file once, keeping the blocks near the iso-value of its slabs: at most %s MiB "
+                "of slices and grid on a rank\n",
+                countText(maxRead >> 20).c_str());
     }
     return 0;
 }

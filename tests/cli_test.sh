@@ -323,28 +323,41 @@ ls -a "$tmp" | grep -q scratch && bad "mesh --memory: scratch files left behind"
 # Volumes with --memory: a real CT (NRRD) converted a slab at a time, and a .vdb grid, the same bytes.
 ct="$shared/volumes/headsq-ct-nrrd/quarter.nhdr"
 if [ -f "$ct" ]; then
-    "$bin" --quiet mesh "$ct" --iso 1000 --normals -o "$tmp/ct_whole.ply"
+    # The reference: the whole volume's grid (convert's, as the in-memory path makes it) meshed from a .vdb.
+    "$bin" --quiet convert "$ct" -o "$tmp/ct.vdb" && "$bin" --quiet mesh "$tmp/ct.vdb" --iso 1000 --normals -o "$tmp/ct_whole.ply"
+    expect_exit 0 "mesh CT (streamed by default)" "$bin" mesh "$ct" --iso 1000 --normals -o "$tmp/ct_streamed.ply"
+    grep -q "in 1 pass over the file" "$tmp/out" && ok || { bad "mesh CT: not streamed"; cat "$tmp/out"; }
+    cmp -s "$tmp/ct_whole.ply" "$tmp/ct_streamed.ply" && ok || bad "mesh CT (streamed): not the whole grid's bytes"
     expect_exit 0 "mesh CT --memory" "$bin" mesh "$ct" --iso 1000 --normals -o "$tmp/ct_slabs.ply" --memory 500M
-    cmp -s "$tmp/ct_whole.ply" "$tmp/ct_slabs.ply" && ok || bad "mesh CT --memory: not the in-memory path's bytes"
+    cmp -s "$tmp/ct_whole.ply" "$tmp/ct_slabs.ply" && ok || bad "mesh CT --memory: not the whole grid's bytes"
+    # Inside below, where the exterior is the volume's minimum (inside) as in the whole grid.
+    "$bin" --quiet mesh "$tmp/ct.vdb" --iso 1000 --inside below -o "$tmp/ct_below_whole.ply"
+    expect_exit 0 "mesh CT --inside below (streamed)" "$bin" mesh "$ct" --iso 1000 --inside below -o "$tmp/ct_below.ply"
+    cmp -s "$tmp/ct_below_whole.ply" "$tmp/ct_below.ply" && ok || bad "mesh CT --inside below: not the whole grid's bytes"
+    rm -f "$tmp/ct.vdb"
     expect_exit 2 "mesh CT --memory --smooth" "$bin" mesh "$ct" --iso 1000 --smooth 1 -o "$tmp/x.ply" --memory 500M
 fi
-# A volume file wider than its slabs, read a few slabs at a time (never whole): the same bytes, under the
-# limit, where the in-memory path holds the whole volume (a 1237 x 159 x 159 float NIfTI: 125 MB).
+# A volume file streamed (never whole), keeping only the blocks near the iso-value: the same bytes, under
+# the limit, where the in-memory path holds the whole volume (a 1237 x 159 x 159 float NIfTI: 125 MB).
 printf 'difference() { cube([8, 1, 1], center = true); rotate([0, 90, 0]) cylinder(h = 9, r = 0.3, center = true); }\n' >"$tmp/wide.isf"
 "$bin" --quiet sample "$tmp/wide.isf" --voxel 0.0065 -o "$tmp/wide.vdb" && "$bin" --quiet convert "$tmp/wide.vdb" -o "$tmp/wide.nii"
-"$bin" --quiet mesh "$tmp/wide.nii" --normals -o "$tmp/wide_whole.ply"
-expect_exit 0 "mesh NIfTI --memory (read in passes)" "$bin" mesh "$tmp/wide.nii" --normals -o "$tmp/wide_slabs.ply" --memory 150M
-cmp -s "$tmp/wide_whole.ply" "$tmp/wide_slabs.ply" && ok || bad "mesh NIfTI --memory: not the in-memory path's bytes"
-grep -Eq "in [2-9] passes over the file" "$tmp/out" && ok || { bad "mesh NIfTI --memory: not read in passes"; cat "$tmp/out"; }
-awk '/^peak memory/ { v = $3; gsub(",", "", v); exit !(v + 0 > 0 && v + 0 <= 150) }' "$tmp/out" && ok \
-    || { bad "mesh NIfTI --memory: peak memory not under the limit"; cat "$tmp/out"; }
+"$bin" --quiet convert "$tmp/wide.nii" -o "$tmp/wide_grid.vdb" && "$bin" --quiet mesh "$tmp/wide_grid.vdb" --normals -o "$tmp/wide_whole.ply"
+rm -f "$tmp/wide_grid.vdb"
+for limit in 150 125; do  # 46 MiB of grid near the level: one pass, or (at 125M, here) two
+    expect_exit 0 "mesh NIfTI --memory ${limit}M (streamed)" "$bin" mesh "$tmp/wide.nii" --normals -o "$tmp/wide_slabs.ply" --memory ${limit}M
+    cmp -s "$tmp/wide_whole.ply" "$tmp/wide_slabs.ply" && ok || bad "mesh NIfTI --memory ${limit}M: not the in-memory path's bytes"
+    grep -Eq "in [0-9]+ pass(es)? over the file \(10 MiB of slices and a grid of [0-9]+ MiB near the iso-value" "$tmp/out" && ok \
+        || { bad "mesh NIfTI --memory ${limit}M: no reading line"; cat "$tmp/out"; }
+    awk -v m=$limit '/^peak memory/ { v = $3; gsub(",", "", v); exit !(v + 0 > 0 && v + 0 <= m) }' "$tmp/out" && ok \
+        || { bad "mesh NIfTI --memory ${limit}M: peak memory not under the limit"; cat "$tmp/out"; }
+done
 rm -f "$tmp/wide.nii" "$tmp/wide.vdb"
-frog="$shared/volumes/frog-tissue-labels/frogtissue.mhd"
-if [ -f "$frog" ]; then  # one slab of the frog (152 x 470 x 136 floats, 39 MiB) needs three times that
-    expect_exit 1 "mesh volume --memory (a slab cannot fit)" "$bin" mesh "$frog" --iso 3.5 -o "$tmp/x.ply" --memory 120M
-    grep -q "raise --memory to at least" "$tmp/err" && ok || { bad "mesh volume --memory: no estimate when a slab cannot fit"; cat "$tmp/err"; }
-    [ ! -e "$tmp/x.ply" ] && ok || bad "mesh volume --memory: a partial output was left"
-fi
+# Twelve slices of a 1024 x 1024 raw volume (49 MiB) and the process do not fit in 130M: refused with the figure.
+truncate -s $((1024 * 1024 * 16)) "$tmp/zeros.raw"
+expect_exit 1 "mesh volume --memory (its slices cannot fit)" "$bin" mesh "$tmp/zeros.raw" --dims 1024,1024,16 --type uint8 --iso 0.5 -o "$tmp/x.ply" --memory 130M
+grep -q "raise --memory to at least" "$tmp/err" && ok || { bad "mesh volume --memory: no estimate when its slices cannot fit"; cat "$tmp/err"; }
+[ ! -e "$tmp/x.ply" ] && ok || bad "mesh volume --memory: a partial output was left"
+rm -f "$tmp/zeros.raw"
 "$bin" --quiet mesh "$src/data/sphere.vdb" -o "$tmp/vdb_whole.stl"
 expect_exit 0 "mesh .vdb --memory" "$bin" mesh "$src/data/sphere.vdb" -o "$tmp/vdb_slabs.stl" --memory 500M
 cmp -s "$tmp/vdb_whole.stl" "$tmp/vdb_slabs.stl" && ok || bad "mesh .vdb --memory: not the in-memory path's bytes"

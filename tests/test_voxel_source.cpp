@@ -1,6 +1,5 @@
 // Volume files read a run of slices at a time (volume/voxel_source.h): every streamable format gives
-// readVolume's voxels and range, cut and corrupt data is an error, and meshing a file in passes gives
-// the whole grid's mesh, byte for byte.
+// readVolume's voxels and range, and cut and corrupt data is an error.
 #include <gtest/gtest.h>
 
 #include <cstring>
@@ -10,9 +9,8 @@
 
 #include "core/error.h"
 #include "test_util.h"
-#include "volume/bricked.h"
 #include "volume/dense_grid.h"
-#include "volume/marching_cubes.h"
+#include "volume/near_level.h"
 #include "volume/voxel_source.h"
 
 using namespace isoforge;
@@ -43,7 +41,7 @@ std::string gzipped(const std::string& bytes) {
     return out;
 }
 
-/// Streams every slice of `path` in runs of `run` slices, and checks them, the header and the x ranges
+/// Streams every slice of `path` in runs of `run` slices, and checks them, the header and the range
 /// against readVolume's.
 void expectReadVolumesVoxels(const fs::path& path, const volume::VolumeReadOptions& o = {}) {
     SCOPED_TRACE(path.string());
@@ -69,23 +67,8 @@ void expectReadVolumesVoxels(const fs::path& path, const volume::VolumeReadOptio
         ASSERT_EQ(all.size(), whole.values.size());
         EXPECT_EQ(std::memcmp(all.data(), whole.values.data(), all.size() * sizeof(float)), 0) << "run " << run;
     }
-    const std::int64_t nx = whole.dims[0];
-    const volume::XRanges r = volume::readXRanges(*source, {{-8, nx / 3}, {nx / 2, nx + 16}, {nx, nx + 8}});
-    EXPECT_EQ(r.range, whole.range());
-    ASSERT_EQ(r.values.size(), 3u);
-    EXPECT_EQ(r.begin, (std::vector<std::int64_t>{0, nx / 2, nx}));
-    EXPECT_TRUE(r.values[2].empty());
-    for (int i = 0; i < 2; ++i) {
-        const std::int64_t x0 = r.begin[std::size_t(i)], w = i == 0 ? nx / 3 : nx - nx / 2;
-        ASSERT_EQ(r.values[std::size_t(i)].size(), std::size_t(w * whole.dims[1] * whole.dims[2]));
-        bool same = true;
-        for (std::int64_t k = 0; k < whole.dims[2]; ++k)
-            for (std::int64_t j = 0; j < whole.dims[1]; ++j)
-                for (std::int64_t x = 0; x < w; ++x)
-                    same = same && r.values[std::size_t(i)][std::size_t((k * whole.dims[1] + j) * w + x)] ==
-                                       whole.at(x0 + x, j, k);
-        EXPECT_TRUE(same) << "range " << i;
-    }
+    // The range found as the slices stream past, as the slab path takes it.
+    EXPECT_EQ(volume::nearLevelGrid(*source, {}).range, whole.range());
 }
 
 }  // namespace
@@ -153,7 +136,7 @@ TEST(VoxelSource, CutAndCorruptDataIsAnErrorNamingTheFile) {
         try {
             s = volume::voxelSource(p);
             ASSERT_TRUE(s);
-            volume::readXRanges(*s, {{0, 8}});
+            volume::nearLevelGrid(*s, {});
             ADD_FAILURE() << "no error";
         } catch (const IoError& e) {
             EXPECT_NE(std::string(e.what()).find(p.filename().string()), std::string::npos) << e.what();
@@ -172,51 +155,4 @@ TEST(VoxelSource, CutAndCorruptDataIsAnErrorNamingTheFile) {
     writeFile(dir / "HeadMRVolume.raw", readFile(v / "head-mr-small/HeadMRVolume.raw").substr(0, 1000));
     EXPECT_THROW(volume::voxelSource(dir / "short.mhd"), IoError);
     fs::remove_all(dir);
-}
-
-TEST(SlabsOfVolumes, AFileReadInPassesIsTheWholeGridsMesh) {
-    // The frog's 500 x 470 x 136 tissue labels: four slabs, read one per pass or all in one.
-    const fs::path path = test::sharedData() / "volumes/frog-tissue-labels/frogtissue.mhd";
-    const volume::DenseVolume v = volume::readVolume(path);
-    const std::optional<volume::VoxelSource> source = volume::voxelSource(path);
-    ASSERT_TRUE(source);
-    const openvdb::FloatGrid::Ptr whole = volume::toGrid(v);
-    for (bool normals : {false, true}) {
-        volume::MeshingOptions mo;
-        mo.isovalue = 3.5f;
-        mo.normals = normals;
-        const mesh::TriMesh expected = volume::extractIsosurface(*whole, mo);
-        ASSERT_GT(expected.triangles.size(), 10000u);
-        for (std::uint64_t buffer : {std::uint64_t{1}, std::uint64_t{1} << 34}) {
-            SCOPED_TRACE(std::string(normals ? "normals, " : "") + "buffer " + std::to_string(buffer));
-            volume::SlabOptions so;
-            so.isovalue = mo.isovalue;
-            so.normals = normals;
-            volume::SlabStats st;
-            volume::SourceSlabStats ss;
-            mesh::TriMesh pieces;
-            volume::meshVolumeSourceBySlabs(
-                *source, so, buffer,
-                [&](const volume::SlabPiece& p) {
-                    EXPECT_EQ(p.vertexBase, pieces.positions.size());
-                    pieces.positions.insert(pieces.positions.end(), p.mesh.positions.begin(),
-                                            p.mesh.positions.begin() + std::ptrdiff_t(p.owned));
-                    if (normals)
-                        pieces.normals.insert(pieces.normals.end(), p.mesh.normals.begin(),
-                                              p.mesh.normals.begin() + std::ptrdiff_t(p.owned));
-                    pieces.triangles.insert(pieces.triangles.end(), p.mesh.triangles.begin(), p.mesh.triangles.end());
-                },
-                &st, &ss);
-            EXPECT_EQ(st.slabs, 4u);
-            EXPECT_EQ(ss.passes, buffer == 1 ? 4u : 1u);
-            EXPECT_EQ(ss.range, v.range());
-            // One slab per pass holds one slab's x range and halo (152 columns), not the volume.
-            if (buffer == 1) {
-                EXPECT_EQ(ss.bufferBytes, std::uint64_t(152) * 470 * 136 * 4);
-            }
-            EXPECT_TRUE(pieces.positions == expected.positions);
-            EXPECT_TRUE(pieces.normals == expected.normals);
-            EXPECT_TRUE(pieces.triangles == expected.triangles);
-        }
-    }
 }

@@ -190,58 +190,51 @@ void meshVolumeBySlabs(const VolumeView& volume, const ToGridOptions& grid, cons
     meshSlabsInOrder(origins, volumeSlabs(volume, grid), nullptr, options, sink, stats ? *stats : local);
 }
 
-std::uint64_t sourceSlabBytes(const VoxelSource& source, int slabWidth) {
-    const auto& d = source.header.dims;
-    const std::int64_t width = std::min<std::int64_t>(d[0], slabWidth + 24);  // the slab, 8 below, 16 above
-    return std::uint64_t(width) * std::uint64_t(d[1]) * std::uint64_t(d[2]) * sizeof(float);
-}
-
-void meshVolumeSourceBySlabs(const VoxelSource& source, const SlabOptions& options, std::uint64_t bufferBytes,
+void meshVolumeSourceBySlabs(const VoxelSource& source, const SlabOptions& options, std::uint64_t gridBudget,
                              const std::function<void(const SlabPiece&)>& sink, SlabStats* stats,
                              SourceSlabStats* sourceStats) {
     const VolumeView shape{nullptr, source.header.dims, source.header.indexToWorld, source.header.format};
     const std::vector<std::int64_t> origins = volumeSlabOrigins(shape, options.slabWidth);
-    const std::size_t perPass = std::clamp<std::size_t>(
-        std::size_t(bufferBytes / std::max<std::uint64_t>(1, sourceSlabBytes(source, options.slabWidth))), 1,
-        origins.size());
+    const auto slabEnd = [&](std::size_t i) { return origins[i] + options.slabWidth + 16; };  // with its halo
     SourceSlabStats local;
     SourceSlabStats& ss = sourceStats ? *sourceStats : local;
-    XRanges pass;
-    std::size_t first = 0;  // the pass holds slabs [first, first + pass.values.size())
-    ToGridOptions go;
-    // A slab's grid from the pass holding it; the next pass is read when the walk reaches its first slab.
-    const SlabGrid fromPass = [&](std::int64_t xBegin, std::int64_t xEnd, SlabStats& st) {
+    NearLevelGrid pass;
+    std::size_t first = 0, count = 0;  // the pass holds slabs [first, first + count)
+    // The pass holding a slab; the next pass is read when the walk reaches its first slab.
+    const SlabGrid fromPass = [&](std::int64_t xBegin, std::int64_t, SlabStats& st) {
         const std::size_t s = std::size_t((xBegin + 8) / options.slabWidth);
-        if (ss.passes == 0 || s >= first + pass.values.size()) {
-            const auto t0 = Clock::now();
+        if (ss.passes == 0 || s >= first + count) {
+            pass = NearLevelGrid{};  // the last pass's grid goes before the next one's comes
+            NearLevelOptions no;
+            no.level = options.isovalue;
+            no.insideAbove = options.inside != InsideSide::Below;  // Auto: a volume's grid says above
+            no.xBegin = origins[s] - 8;
+            no.xEnd = slabEnd(origins.size() - 1);
+            for (std::size_t i = s; i + 1 < origins.size(); ++i) no.narrowerEnds.push_back(slabEnd(i));
+            no.budgetBytes = gridBudget;
+            pass = nearLevelGrid(source, no);
             first = s;
-            pass = XRanges{};  // the last pass's voxels go before the next one's come
-            std::vector<std::pair<std::int64_t, std::int64_t>> ranges;
-            for (std::size_t i = s; i < std::min(origins.size(), s + perPass); ++i)
-                ranges.emplace_back(origins[i] - 8, origins[i] + options.slabWidth + 16);
-            pass = readXRanges(source, ranges);
-            std::uint64_t bytes = 0;
-            for (const auto& v : pass.values) bytes += v.size() * sizeof(float);
-            ss.bufferBytes = std::max(ss.bufferBytes, bytes);
-            if (ss.passes++ == 0) ss.range = pass.range;
-            go.background = ss.range.first;
-            ss.secondsRead += secondsSince(t0);
+            count = 0;
+            while (s + count < origins.size() && slabEnd(s + count) <= pass.xEnd) ++count;
+            ++ss.passes;
+            ss.windowBytes = pass.windowBytes;
+            ss.gridBytes = std::max(ss.gridBytes, pass.gridBytes);
+            ss.range = pass.range;
+            ss.secondsRead += pass.seconds;
+            st.leaves += pass.grid->tree().leafCount();
         }
-        const std::size_t i = s - first;
-        const auto& d = source.header.dims;
-        const std::int64_t begin = pass.begin[i], end = std::min(d[0], origins[s] + options.slabWidth + 16);
-        VolumeView view{
-            pass.values[i].data(), {end - begin, d[1], d[2]}, source.header.indexToWorld, source.header.format};
-        view.xOffset = begin;
-        ToGridOptions o = go;
-        o.xBegin = xBegin;
-        o.xEnd = xEnd;
-        openvdb::FloatGrid::Ptr g = toGrid(view, o);
-        st.leaves += g->tree().leafCount();
-        return g;
+        return pass.grid;  // each slab meshes its own blocks of it
     };
     SlabStats localSlabs;
     meshSlabsInOrder(origins, fromPass, nullptr, options, sink, stats ? *stats : localSlabs);
+}
+
+std::size_t meshGridSlab(const openvdb::FloatGrid::Ptr& grid, const SlabOptions& options, std::int64_t x0,
+                         std::int64_t x1, bool first, bool last, std::uint64_t vertexBase, mesh::TriMesh& out,
+                         SlabStats* stats) {
+    SlabStats local;
+    const SlabGrid same = [&grid](std::int64_t, std::int64_t, SlabStats&) { return grid; };
+    return meshGridSlab(same, nullptr, options, x0, x1, first, last, vertexBase, out, stats ? *stats : local);
 }
 
 void meshGridBySlabs(const openvdb::FloatGrid& grid, const SlabOptions& options,

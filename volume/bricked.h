@@ -18,6 +18,7 @@
 #include "mesh/trimesh.h"
 #include "volume/dense_grid.h"
 #include "volume/marching_cubes.h"
+#include "volume/near_level.h"
 #include "volume/sample.h"
 #include "volume/voxel_source.h"
 
@@ -74,21 +75,22 @@ void meshBySlabs(const implicit::FieldPtr& field, const SlabOptions& options,
 void meshVolumeBySlabs(const VolumeView& volume, const ToGridOptions& grid, const SlabOptions& options,
                        const std::function<void(const SlabPiece&)>& sink, SlabStats* stats = nullptr);
 
-/// The same for a volume file read a run of slabs at a time (volume/voxel_source.h): each pass over the
-/// file keeps the x ranges (and halos) of as many slabs as `bufferBytes` of floats hold, at least one, so
-/// the volume is never held whole; the first pass also finds the volume's range, whose minimum is the
-/// background (as toGrid's). The same pieces as meshVolumeBySlabs on the whole volume.
+/// The same for a volume file whose voxels stream past (volume/near_level.h): each pass over the file
+/// builds the grid of the blocks near the iso-value (toGridNearLevel's) for a run of slabs, holding
+/// twelve slices at a time, and meshes them. A grid that outgrows `gridBudget` bytes drops its last
+/// slabs, which the next pass takes; so a volume is read once unless its surface does not fit. The same
+/// pieces as meshVolumeBySlabs on the whole volume (whose background is its minimum).
+/// @throw ResourceError when one slab's grid alone outgrows the budget ("outgrew")
 struct SourceSlabStats {
     std::size_t passes = 0;               ///< passes over the file
-    std::uint64_t bufferBytes = 0;        ///< the largest pass's voxels, held at once
+    std::uint64_t windowBytes = 0;        ///< the slices held while reading
+    std::uint64_t gridBytes = 0;          ///< the largest pass's grid
     std::pair<float, float> range{0, 0};  ///< the volume's minimum and maximum
-    double secondsRead = 0;               ///< reading and converting the voxels
+    double secondsRead = 0;               ///< reading the file and building the grids
 };
-void meshVolumeSourceBySlabs(const VoxelSource& source, const SlabOptions& options, std::uint64_t bufferBytes,
+void meshVolumeSourceBySlabs(const VoxelSource& source, const SlabOptions& options, std::uint64_t gridBudget,
                              const std::function<void(const SlabPiece&)>& sink, SlabStats* stats = nullptr,
                              SourceSlabStats* sourceStats = nullptr);
-/// The floats one slab of a volume file holds in meshVolumeSourceBySlabs (the widest, with its halo).
-std::uint64_t sourceSlabBytes(const VoxelSource& source, int slabWidth);
 
 /// The slabs of a volume: x origins 0, slabWidth, ... below its width.
 std::vector<std::int64_t> volumeSlabOrigins(const VolumeView& volume, int slabWidth);
@@ -96,6 +98,12 @@ std::vector<std::int64_t> volumeSlabOrigins(const VolumeView& volume, int slabWi
 std::size_t meshVolumeSlab(const VolumeView& volume, const ToGridOptions& grid, const SlabOptions& options,
                            std::int64_t x0, std::int64_t x1, bool first, bool last, std::uint64_t vertexBase,
                            mesh::TriMesh& out, SlabStats* stats = nullptr);
+
+/// One slab of a grid in memory that holds its blocks and their halo (8 voxels below, 16 above), as
+/// meshVolumeSlab: a rank's run of slabs of a volume file (the MPI layer).
+std::size_t meshGridSlab(const openvdb::FloatGrid::Ptr& grid, const SlabOptions& options, std::int64_t x0,
+                         std::int64_t x1, bool first, bool last, std::uint64_t vertexBase, mesh::TriMesh& out,
+                         SlabStats* stats = nullptr);
 
 /// The same for a grid already in memory (a .vdb file): only the mesh is held a slab at a time.
 void meshGridBySlabs(const openvdb::FloatGrid& grid, const SlabOptions& options,

@@ -2,12 +2,10 @@
 
 #include <algorithm>
 #include <cstdio>
-#include <limits>
 #include <string>
 
 #include <zlib.h>
 
-#include "core/big_buffer.h"
 #include "core/error.h"
 #include "volume/readers.h"
 
@@ -171,49 +169,6 @@ void SliceStream::read(std::int64_t count, float* out) {
     const float slope = state_->source.slope, intercept = state_->source.intercept;
     if (slope != 1.f || intercept != 0.f)
         for (std::size_t i = 0; i < voxels; ++i) out[i] = out[i] * slope + intercept;
-}
-
-XRanges readXRanges(const VoxelSource& source, const std::vector<std::pair<std::int64_t, std::int64_t>>& ranges,
-                    Progress* progress) {
-    const auto& d = source.header.dims;
-    const std::int64_t nx = d[0], ny = d[1], nz = d[2];
-    XRanges r;
-    std::vector<std::int64_t> end;
-    for (const auto& [b, e] : ranges) {
-        const std::int64_t x0 = std::clamp<std::int64_t>(b, 0, nx), x1 = std::clamp<std::int64_t>(e, x0, nx);
-        r.begin.push_back(x0);
-        end.push_back(x1);
-        r.values.emplace_back();
-        resizeLarge(r.values.back(), std::size_t((x1 - x0) * ny * nz));
-    }
-    // Runs of slices of about 16 MiB as floats.
-    const std::int64_t slice = nx * ny, run = std::max<std::int64_t>(1, (std::int64_t{16} << 20) / 4 / slice);
-    std::vector<float> buffer(std::size_t(std::min(run, nz) * slice));
-    SliceStream stream(source);
-    float lo = std::numeric_limits<float>::infinity(), hi = -lo;
-    bool any = false;
-    if (progress) progress->begin("reading " + source.header.format + " slices");
-    for (std::int64_t z0 = 0; z0 < nz; z0 += run) {
-        const std::int64_t count = std::min(run, nz - z0);
-        stream.read(count, buffer.data());
-        const std::size_t n = std::size_t(count * slice);
-        if (!any) lo = hi = buffer[0];  // as DenseVolume::range, over the whole volume in order
-        detail::extendRange(buffer.data(), n, lo, hi);
-        any = true;
-        for (std::size_t i = 0; i < r.values.size(); ++i) {
-            const std::int64_t w = end[i] - r.begin[i];
-            if (w == 0) continue;
-            float* out = r.values[i].data() + std::size_t(z0 * ny * w);
-            for (std::int64_t row = 0; row < count * ny; ++row, out += w) {
-                const float* in = buffer.data() + std::size_t(row * nx + r.begin[i]);
-                std::copy(in, in + w, out);
-            }
-        }
-        if (progress) progress->update(std::size_t(z0 + count), std::size_t(nz));
-    }
-    if (progress) progress->end();
-    r.range = any ? std::pair{lo, hi} : std::pair{0.f, 0.f};
-    return r;
 }
 
 }  // namespace isoforge::volume

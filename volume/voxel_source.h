@@ -2,8 +2,7 @@
 /// @file A volume file's voxels read a run of slices at a time, without holding the volume: where its
 /// header says they are (one file or several, raw or zlib/gzip-compressed, after a header), and a
 /// stream that converts them to float in order. `isoforge mesh VOLUME --memory` and isoforge-mpi read
-/// volumes larger than memory this way: one pass over the file keeps the x range of each slab it
-/// needs (readXRanges) and the whole volume's range.
+/// volumes larger than memory this way, keeping the blocks near the iso-value (volume/near_level.h).
 
 #include <cstdint>
 #include <filesystem>
@@ -12,7 +11,6 @@
 #include <utility>
 #include <vector>
 
-#include "core/progress.h"
 #include "volume/dense_volume.h"
 
 namespace isoforge::volume {
@@ -54,16 +52,5 @@ private:
     struct State;
     std::unique_ptr<State> state_;
 };
-
-/// One pass over a source: the voxels with x in each of `ranges` ([begin, end), clamped to the volume),
-/// every row, each range as a dense block (x fastest: (end - begin) x dims[1] x dims[2] values), and
-/// the whole volume's minimum and maximum.
-struct XRanges {
-    std::vector<std::vector<float>> values;
-    std::vector<std::int64_t> begin;  ///< each block's first x, after clamping
-    std::pair<float, float> range{0.f, 0.f};
-};
-XRanges readXRanges(const VoxelSource& source, const std::vector<std::pair<std::int64_t, std::int64_t>>& ranges,
-                    Progress* progress = nullptr);
 
 }  // namespace isoforge::volume
