@@ -387,6 +387,11 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                 if (memoryLimit == 0) memoryLimit = volume::physicalMemory() / 2;
                 return meshVolumeFileBySlabs(a->input, a->grid, a->volume, a->smooth, a->sharp, a->maxError > 0,
                                              slabJob(), g);
+            } else if (isDenseVolumeFile(a->input) && a->smooth == 0 && !(a->volume.tolerance > 0) && !a->sharp) {
+                // Read whole (a DICOM series, .glb output, --max-error), but only the blocks near the
+                // iso-value become a grid: the same mesh as the whole volume's grid.
+                const volume::DenseVolume v = loadVolume(a->input, a->volume, g);
+                grid = volumeGridNearLevel(v, a->iso, inside != volume::InsideSide::Below);
             } else {
                 grid = loadOrSample(a->input, a->grid, a->field, g, g.quiet ? nullptr : &progress, a->stats, &field,
                                     &a->volume, a->smooth);

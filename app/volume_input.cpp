@@ -76,6 +76,16 @@ openvdb::FloatGrid::Ptr volumeGrid(const volume::DenseVolume& v, const VolumeInp
     return grid;
 }
 
+openvdb::FloatGrid::Ptr volumeGridNearLevel(const volume::DenseVolume& v, float level, bool insideAbove) {
+    openvdb::FloatGrid::Ptr grid =
+        volume::toGridNearLevel(volume::VolumeView{v.values.data(), v.dims, v.indexToWorld, v.format}, level,
+                                insideAbove, nullptr, /*exteriorOutside=*/false);
+    grid->setName("volume");
+    if (!v.units.empty()) grid->insertMeta("units", openvdb::StringMetadata(v.units));
+    if (!v.modality.empty()) grid->insertMeta("modality", openvdb::StringMetadata(v.modality));
+    return grid;
+}
+
 std::string describeVolume(const std::string& path, const volume::DenseVolume& v) {
     std::ostringstream s;
     const glm::dvec3 sp = v.spacing();

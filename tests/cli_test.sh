@@ -334,7 +334,22 @@ if [ -f "$ct" ]; then
     "$bin" --quiet mesh "$tmp/ct.vdb" --iso 1000 --inside below -o "$tmp/ct_below_whole.ply"
     expect_exit 0 "mesh CT --inside below (streamed)" "$bin" mesh "$ct" --iso 1000 --inside below -o "$tmp/ct_below.ply"
     cmp -s "$tmp/ct_below_whole.ply" "$tmp/ct_below.ply" && ok || bad "mesh CT --inside below: not the whole grid's bytes"
+    # To .glb (which does not stream) the volume is read whole, and only its blocks near the level kept.
+    "$bin" --quiet mesh "$tmp/ct.vdb" --iso 1000 -o "$tmp/ct_whole.glb"
+    expect_exit 0 "mesh CT to .glb (read whole)" "$bin" mesh "$ct" --iso 1000 -o "$tmp/ct.glb"
+    cmp -s "$tmp/ct_whole.glb" "$tmp/ct.glb" && ok || bad "mesh CT to .glb: not the whole grid's bytes"
     rm -f "$tmp/ct.vdb"
+fi
+# A DICOM series is read whole, but only its blocks near the iso-value become a grid: the whole grid's bytes.
+dicom="$shared/volumes/ct-abdomen-dicom/series"
+if [ -d "$dicom" ]; then
+    "$bin" --quiet convert "$dicom" -o "$tmp/abd.vdb"
+    for side in above below; do
+        "$bin" --quiet mesh "$tmp/abd.vdb" --iso 300 --inside $side --normals -o "$tmp/abd_whole.ply"
+        expect_exit 0 "mesh DICOM --inside $side" "$bin" mesh "$dicom" --iso 300 --inside $side --normals -o "$tmp/abd.ply"
+        cmp -s "$tmp/abd_whole.ply" "$tmp/abd.ply" && ok || bad "mesh DICOM --inside $side: not the whole grid's bytes"
+    done
+    rm -f "$tmp/abd.vdb"
     expect_exit 2 "mesh CT --memory --smooth" "$bin" mesh "$ct" --iso 1000 --smooth 1 -o "$tmp/x.ply" --memory 500M
 fi
 # A volume file streamed (never whole), keeping only the blocks near the iso-value: the same bytes, under

@@ -78,6 +78,15 @@ TEST(NearLevel, AStreamedGridIsTheGridOfTheVolumeInMemory) {
             EXPECT_EQ(whole.range, range);
             EXPECT_EQ(whole.range, v.range());
             expectSameBlocks(*expected, *whole.grid, -1 << 30, 1 << 30);
+            // With toGrid's exterior (the minimum) instead: the grid the command line meshes.
+            {
+                volume::NearLevelOptions m = o;
+                m.exteriorOutside = false;
+                const volume::NearLevelGrid streamed = volume::nearLevelGrid(*source, m);
+                const auto inMemory = volume::toGridNearLevel(view, level, above, nullptr, false);
+                expectSameBlocks(*inMemory, *streamed.grid, -1 << 30, 1 << 30);
+                EXPECT_EQ(streamed.grid->background(), range.first);  // toGrid's, either side
+            }
             EXPECT_EQ(whole.windowBytes, std::uint64_t(v.dims[0] * v.dims[1]) *
                                              (12 * 4 + volume::detail::typeSize(source->header.storedType)));
             if (v.dims[0] > 256) {

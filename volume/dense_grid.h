@@ -48,8 +48,12 @@ openvdb::FloatGrid::Ptr toGrid(const VolumeView& volume, const ToGridOptions& op
 /// when `insideAbove`, else below; the inside value is the volume's maximum (its minimum when inside is
 /// below) and the background the other extreme, as toGrid's background is. `range` (if given) gets
 /// the volume's minimum and maximum. Parallel (TBB); deterministic.
+/// Without `exteriorOutside`, beyond the array is the volume's minimum, as on toGrid's grid (whose
+/// background it is): the same grid when inside is above; with inside below, the background is the
+/// minimum (inside) and the blocks wholly outside are tiles of the maximum, so that marching cubes gives
+/// toGrid's mesh there too (volume/near_level.h).
 openvdb::FloatGrid::Ptr toGridNearLevel(const VolumeView& volume, float level, bool insideAbove,
-                                        std::pair<float, float>* range = nullptr);
+                                        std::pair<float, float>* range = nullptr, bool exteriorOutside = true);
 
 /// The dense volume of a grid's active bounding box (inactive voxels take the background).
 /// @throw ResourceError if it would not fit in half of this machine's memory (active tiles of a tiny file can

@@ -125,6 +125,20 @@ void fillLeaf(Leaf& leaf, const Shape& s, const Slice& slice, float outsideValue
             }
 }
 
+/// The grid's background, and which blocks become tiles of what: the outside extreme as background and
+/// the inside blocks tiles of the other; where the exterior is inside (below the level, toGrid's
+/// minimum), the minimum as background and the outside blocks tiles of the maximum.
+struct Fill {
+    float background;
+    std::uint8_t tileKind;
+    float tileValue;
+};
+Fill fillOf(bool above, bool exteriorInside, float lo, float hi) {
+    if (above) return {lo, kInside, hi};
+    if (exteriorInside) return {lo, kOutside, hi};
+    return {hi, kInside, lo};
+}
+
 openvdb::FloatGrid::Ptr emptyGrid(const glm::dmat4& indexToWorld, const std::string& format, bool above,
                                   float outsideValue) {
     auto grid = openvdb::FloatGrid::create(outsideValue);
@@ -159,10 +173,11 @@ void dropFrom(Tree& tree, int x0) {
 }  // namespace
 
 openvdb::FloatGrid::Ptr toGridNearLevel(const VolumeView& v, float level, bool insideAbove,
-                                        std::pair<float, float>* range) {
+                                        std::pair<float, float>* range, bool exteriorOutside) {
     initializeOpenVdb();
     if (v.xOffset != 0) throw std::invalid_argument("toGridNearLevel takes a whole volume (xOffset 0)");
     const Shape s(v.dims);
+    const bool exteriorInside = !insideAbove && !exteriorOutside;
     if (s.nx <= 0 || s.ny <= 0 || s.nz <= 0) {
         if (range) *range = {0.f, 0.f};
         return openvdb::FloatGrid::create(0.f);
@@ -174,21 +189,21 @@ openvdb::FloatGrid::Ptr toGridNearLevel(const VolumeView& v, float level, bool i
     std::vector<float> layerLo(std::size_t(s.bz), inf), layerHi(std::size_t(s.bz), -inf);
     tbb::enumerable_thread_specific<std::vector<float>> scratch;
     tbb::parallel_for(std::int64_t{0}, s.bz, [&](std::int64_t K) {
-        classifyBlocks(s, K, 0, s.by, 0, s.bx, slice, level, insideAbove, false,
+        classifyBlocks(s, K, 0, s.by, 0, s.bx, slice, level, insideAbove, exteriorInside,
                        kind.data() + std::size_t(K * s.by * s.bx), scratch.local(), layerLo[std::size_t(K)],
                        layerHi[std::size_t(K)]);
     });
     const float minimum = *std::min_element(layerLo.begin(), layerLo.end());
     const float maximum = *std::max_element(layerHi.begin(), layerHi.end());
     if (range) *range = {minimum, maximum};
-    const float insideValue = insideAbove ? maximum : minimum, outsideValue = insideAbove ? minimum : maximum;
-    auto grid = emptyGrid(v.indexToWorld, v.format, insideAbove, outsideValue);
+    const Fill f = fillOf(insideAbove, exteriorInside, minimum, maximum);
+    auto grid = emptyGrid(v.indexToWorld, v.format, insideAbove, f.background);
     std::vector<Leaf*> leaves;
     for (std::int64_t K = 0; K < s.bz; ++K)
-        addLayer(grid->tree(), K, s.by, 0, s.bx, kind.data() + std::size_t(K * s.by * s.bx), kInside, insideValue,
+        addLayer(grid->tree(), K, s.by, 0, s.bx, kind.data() + std::size_t(K * s.by * s.bx), f.tileKind, f.tileValue,
                  leaves);
     tbb::parallel_for(std::size_t{0}, leaves.size(),
-                      [&](std::size_t n) { fillLeaf(*leaves[n], s, slice, outsideValue); });
+                      [&](std::size_t n) { fillLeaf(*leaves[n], s, slice, f.background); });
     return grid;
 }
 
@@ -240,7 +255,7 @@ NearLevelGrid nearLevelGrid(const VoxelSource& source, const NearLevelOptions& o
                                kind.data() + std::size_t(js.begin() * ni), scratch.local(), lo, hi);
             });
         leaves.clear();
-        addLayer(tree, K, s.by, I0, I1, kind.data(), exteriorInside ? kOutside : kInside, 0.f, leaves);
+        addLayer(tree, K, s.by, I0, I1, kind.data(), fillOf(above, exteriorInside, 0, 0).tileKind, 0.f, leaves);
         tbb::parallel_for(std::size_t{0}, leaves.size(), [&](std::size_t n) { fillLeaf(*leaves[n], s, sliceAt, 0.f); });
         // Over budget: drop the last slabs' blocks, as many as it takes.
         std::uint64_t bytes = treeBytes(tree);
@@ -271,13 +286,11 @@ NearLevelGrid nearLevelGrid(const VoxelSource& source, const NearLevelOptions& o
     }
     if (o.progress) o.progress->end();
     r.range = {lo, hi};
-    // The background is the outside extreme, or the minimum (inside, below the level) where the exterior
-    // is inside; tiles take the other extreme.
-    const float background = above || exteriorInside ? lo : hi, tileValue = above || exteriorInside ? hi : lo;
-    tree.root().setBackground(background, true);  // and the leaves' voxels past the array
+    const Fill f = fillOf(above, exteriorInside, lo, hi);
+    tree.root().setBackground(f.background, true);  // and the leaves' voxels past the array
     auto tile = tree.beginValueOn();
     tile.setMaxDepth(Tree::ValueOnIter::LEAF_DEPTH - 1);  // tiles only
-    for (; tile; ++tile) tile.setValue(tileValue);
+    for (; tile; ++tile) tile.setValue(f.tileValue);
     r.grid = grid;
     r.gridBytes = treeBytes(tree);
     r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
