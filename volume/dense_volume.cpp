@@ -6,7 +6,10 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <utility>
+#include <vector>
 
+#include <tbb/parallel_for.h>
 #include <glm/geometric.hpp>
 #include <glm/matrix.hpp>
 
@@ -145,6 +148,37 @@ VoxelSource rawSource(const std::filesystem::path& path, const VolumeReadOptions
     s.parts.push_back({path, o.rawOffset, 0, v.voxelCount() * bytesPer, false});
     s.bigEndian = o.rawBigEndian;
     return s;
+}
+
+namespace {
+void scanRange(const float* v, std::size_t count, float& lo, float& hi) {
+    float a = lo, b = hi;
+    for (std::size_t i = 0; i < count; ++i) {
+        a = v[i] < a ? v[i] : a;
+        b = b < v[i] ? v[i] : b;
+    }
+    lo = a;
+    hi = b;
+}
+}  // namespace
+
+void extendRange(const float* v, std::size_t count, float& lo, float& hi) {
+    // In fixed chunks on all threads, then the chunks' ranges in order with the same rule: a value
+    // replaces the range's end only when strictly beyond it, so the answer (signed zeros and NaNs
+    // included) is the one scan's, whatever the thread count.
+    constexpr std::size_t kChunk = std::size_t{1} << 18;
+    if (count <= kChunk) return scanRange(v, count, lo, hi);
+    const std::size_t chunks = (count + kChunk - 1) / kChunk;
+    const float inf = std::numeric_limits<float>::infinity();
+    std::vector<std::pair<float, float>> part(chunks, {inf, -inf});
+    part[0] = {lo, hi};
+    tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+        scanRange(v + c * kChunk, std::min(kChunk, count - c * kChunk), part[c].first, part[c].second);
+    });
+    for (const auto& [a, b] : part) {
+        lo = a < lo ? a : lo;
+        hi = hi < b ? b : hi;
+    }
 }
 
 }  // namespace detail

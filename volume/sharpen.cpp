@@ -139,6 +139,8 @@ std::size_t flipCreases(const std::vector<glm::vec3>& P, std::vector<glm::uvec3>
     // Only fan triangles (apex first) matter: a candidate's two triangles are fans, every edge a flip
     // adds or changes has an apex at one end, and a feature cell holds only its fan.
     std::unordered_map<std::uint64_t, std::array<std::int64_t, 2>> edgeTris;
+    edgeTris.reserve(
+        3 * std::size_t(std::count_if(tris.begin(), tris.end(), [&](const glm::uvec3& t) { return isApex(t.x); })));
     std::vector<std::vector<std::size_t>> inCell(cellCount);
     for (std::size_t t = 0; t < tris.size(); ++t) {
         if (!isApex(tris[t].x)) continue;

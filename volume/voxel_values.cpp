@@ -15,16 +15,6 @@
 
 namespace isoforge::volume::detail {
 
-void extendRange(const float* v, std::size_t count, float& lo, float& hi) {
-    float a = lo, b = hi;
-    for (std::size_t i = 0; i < count; ++i) {
-        a = v[i] < a ? v[i] : a;
-        b = b < v[i] ? v[i] : b;
-    }
-    lo = a;
-    hi = b;
-}
-
 void checkVolumeDims(const std::filesystem::path& path, const std::array<std::int64_t, 3>& dims) {
     for (std::int64_t d : dims)
         if (d < 1 || d > (1 << 20))
