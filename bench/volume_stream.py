@@ -16,7 +16,8 @@ Wall seconds and peak resident memory of each whole process (/usr/bin/time).
 
   bench/volume_stream.py [--build DIR] [--quick] [--huge]
       --quick: 512 x 512 x 192 (100 MB); default 1024 x 1024 x 768 (1.6 GB);
-      --huge: also 1024 x 1024 x 3072 (6.4 GB, 12.9 GB as floats: more than half of a 24 GB machine)
+      --huge: also 1024 x 1024 x 6528 (13.7 GB, 25.5 GiB as floats: more than a 24 GB machine holds;
+              streamed rows only)
 """
 import argparse
 import filecmp
@@ -88,7 +89,7 @@ def main():
         have_vtk = False
     sizes = [(1, 4)] if args.quick else [(2, 16)]
     if args.huge:
-        sizes.append((2, 64))
+        sizes.append((2, 136))
     print("## Volume files to a bone mesh (300 HU, binary PLY), whole commands, %s cores\n" % os.cpu_count())
     print("| volume | command | s | peak MiB | triangles | same bytes as streamed | VTK s / isoforge s |")
     print("|---|---|---:|---:|---:|---|---:|")
@@ -102,7 +103,7 @@ def main():
             tri = re.search(r"([\d,]+) triangles", out).group(1)
             rows = [("`isoforge mesh` (streamed)", t, p, tri, "-")]
             base = t
-            limit = "250M" if not args.quick else "160M"
+            limit = "160M" if args.quick else ("2G" if copies > 16 else "250M")
             other = os.path.join(tmp, "limited.ply")
             t, p, out = timed([isoforge, "mesh", header, "--iso", "300", "-o", other, "--memory", limit])
             passes = re.search(r"in ([\d,]+) pass", out).group(1)
