@@ -35,46 +35,46 @@ struct Shape {
 /// sees outside there, or inside where `exteriorInside`.
 enum : std::uint8_t { kOutside = 0, kInside = 1, kLeaf = 2 };
 
-/// The kinds of layer K's blocks in rows [J0, J1) and columns [I0, I1) (kind[(J - J0) * (I1 - I0) + I - I0]),
-/// from their voxels' ranges widened by two voxels each way: rows' ranges over each block's x extent,
-/// then over each block's rows in y and z. `slice(k)` gives slice k, x fastest. lo and hi take the
-/// range of the rows visited.
-template <class Slice>
-void classifyBlocks(const Shape& s, std::int64_t K, std::int64_t J0, std::int64_t J1, std::int64_t I0, std::int64_t I1,
-                    const Slice& slice, float level, bool above, bool exteriorInside, std::uint8_t* kind,
-                    std::vector<float>& buffer, float& lo, float& hi) {
+/// The ranges of one slice's rows [j0, j1) over each block column I in [I0, I1), widened by two voxels
+/// each way, at rowLo[(j - j0) * stride + I - I0] (rowHi likewise); lo and hi take the values visited.
+void rowRanges(const Shape& s, const float* values, std::int64_t j0, std::int64_t j1, std::int64_t I0, std::int64_t I1,
+               std::int64_t stride, float* rowLo, float* rowHi, float& lo, float& hi) {
     const float inf = std::numeric_limits<float>::infinity();
-    const std::int64_t k0 = std::max<std::int64_t>(8 * K - 2, 0), k1 = std::min(8 * K + 10, s.nz);
-    const std::int64_t j0 = std::max<std::int64_t>(8 * J0 - 2, 0), j1 = std::min(8 * J1 + 10, s.ny);
-    const std::int64_t ni = I1 - I0, nj = j1 - j0;
-    const std::size_t rows = std::size_t((k1 - k0) * nj * ni);
-    buffer.resize(2 * rows);
-    float *rowLo = buffer.data(), *rowHi = buffer.data() + rows;
-    const auto row = [&](std::int64_t k, std::int64_t j) { return std::size_t(((k - k0) * nj + j - j0) * ni); };
-    for (std::int64_t k = k0; k < k1; ++k) {
-        const float* values = slice(k);
-        for (std::int64_t j = j0; j < j1; ++j) {
-            const float* p = values + std::size_t(j * s.nx);
-            for (std::int64_t I = I0; I < I1; ++I) {
-                float l = inf, h = -inf;
-                for (std::int64_t i = std::max<std::int64_t>(8 * I - 2, 0); i < std::min(8 * I + 10, s.nx); ++i) {
-                    l = std::min(l, p[i]);  // branch-free: vectorized
-                    h = std::max(h, p[i]);
-                }
-                rowLo[row(k, j) + std::size_t(I - I0)] = l;
-                rowHi[row(k, j) + std::size_t(I - I0)] = h;
-                lo = std::min(lo, l);
-                hi = std::max(hi, h);
+    for (std::int64_t j = j0; j < j1; ++j) {
+        const float* p = values + std::size_t(j * s.nx);
+        float* l8 = rowLo + std::size_t((j - j0) * stride);
+        float* h8 = rowHi + std::size_t((j - j0) * stride);
+        for (std::int64_t I = I0; I < I1; ++I) {
+            float l = inf, h = -inf;
+            for (std::int64_t i = std::max<std::int64_t>(8 * I - 2, 0); i < std::min(8 * I + 10, s.nx); ++i) {
+                l = std::min(l, p[i]);  // branch-free: vectorized
+                h = std::max(h, p[i]);
             }
+            l8[I - I0] = l;
+            h8[I - I0] = h;
+            lo = std::min(lo, l);
+            hi = std::max(hi, h);
         }
     }
+}
+
+/// The kinds of layer K's blocks in rows [J0, J1) and columns [I0, I1) (kind[(J - J0) * (I1 - I0) + I - I0]),
+/// from the row ranges of its slices and the two each side: rows(k, j) gives the lo and hi of slice k's
+/// row j at column I0 (rowRanges').
+template <class Rows>
+void blockKinds(const Shape& s, std::int64_t K, std::int64_t J0, std::int64_t J1, std::int64_t I0, std::int64_t I1,
+                const Rows& rows, float level, bool above, bool exteriorInside, std::uint8_t* kind) {
+    const float inf = std::numeric_limits<float>::infinity();
+    const std::int64_t k0 = std::max<std::int64_t>(8 * K - 2, 0), k1 = std::min(8 * K + 10, s.nz);
+    const std::int64_t ni = I1 - I0;
     for (std::int64_t J = J0; J < J1; ++J)
         for (std::int64_t I = I0; I < I1; ++I) {
             float l = inf, h = -inf;
             for (std::int64_t k = k0; k < k1; ++k)
                 for (std::int64_t j = std::max<std::int64_t>(8 * J - 2, 0); j < std::min(8 * J + 10, s.ny); ++j) {
-                    l = std::min(l, rowLo[row(k, j) + std::size_t(I - I0)]);
-                    h = std::max(h, rowHi[row(k, j) + std::size_t(I - I0)]);
+                    const auto [rl, rh] = rows(k, j);
+                    l = std::min(l, rl[I - I0]);
+                    h = std::max(h, rh[I - I0]);
                 }
             const bool past = 8 * I - 2 < 0 || 8 * J - 2 < 0 || 8 * K - 2 < 0 || 8 * I + 10 > s.nx ||
                               8 * J + 10 > s.ny || 8 * K + 10 > s.nz;
@@ -82,6 +82,31 @@ void classifyBlocks(const Shape& s, std::int64_t K, std::int64_t J0, std::int64_
             const bool out = (past && !exteriorInside) || (above ? l <= level : h >= level);
             kind[std::size_t((J - J0) * ni + I - I0)] = in && out ? kLeaf : (in ? kInside : kOutside);
         }
+}
+
+/// blockKinds for a volume in memory: layer K's row ranges found first, in `buffer`. `slice(k)` gives
+/// slice k, x fastest; lo and hi take the range of the rows visited.
+template <class Slice>
+void classifyBlocks(const Shape& s, std::int64_t K, std::int64_t J0, std::int64_t J1, std::int64_t I0, std::int64_t I1,
+                    const Slice& slice, float level, bool above, bool exteriorInside, std::uint8_t* kind,
+                    std::vector<float>& buffer, float& lo, float& hi) {
+    const std::int64_t k0 = std::max<std::int64_t>(8 * K - 2, 0), k1 = std::min(8 * K + 10, s.nz);
+    const std::int64_t j0 = std::max<std::int64_t>(8 * J0 - 2, 0), j1 = std::min(8 * J1 + 10, s.ny);
+    const std::int64_t ni = I1 - I0, nj = j1 - j0;
+    const std::size_t rows = std::size_t((k1 - k0) * nj * ni);
+    buffer.resize(2 * rows);
+    float *rowLo = buffer.data(), *rowHi = buffer.data() + rows;
+    for (std::int64_t k = k0; k < k1; ++k) {
+        const std::size_t at = std::size_t((k - k0) * nj * ni);
+        rowRanges(s, slice(k), j0, j1, I0, I1, ni, rowLo + at, rowHi + at, lo, hi);
+    }
+    blockKinds(
+        s, K, J0, J1, I0, I1,
+        [&](std::int64_t k, std::int64_t j) {
+            const std::size_t at = std::size_t(((k - k0) * nj + j - j0) * ni);
+            return std::pair<const float*, const float*>(rowLo + at, rowHi + at);
+        },
+        level, above, exteriorInside, kind);
 }
 
 /// Layer K's tiles (the blocks of kind `tileKind`, the other side from the background) and leaves
@@ -210,8 +235,9 @@ openvdb::FloatGrid::Ptr toGridNearLevel(const VolumeView& v, float level, bool i
 std::uint64_t nearLevelWindowBytes(const VoxelSource& source) {
     const auto& d = source.header.dims;
     const auto n = [](std::int64_t a) { return std::uint64_t(std::max<std::int64_t>(a, 0)); };
-    const std::uint64_t slice = n(d[0]) * n(d[1]);
-    return slice * (std::min<std::uint64_t>(12, n(d[2])) * sizeof(float) + detail::typeSize(source.header.storedType));
+    const std::uint64_t slice = n(d[0]) * n(d[1]), rows = n(d[1]) * ((n(d[0]) + 7) / 8) * 2 * sizeof(float);
+    return std::min<std::uint64_t>(12, n(d[2])) * (slice * sizeof(float) + rows) +
+           slice * detail::typeSize(source.header.storedType);
 }
 
 NearLevelGrid nearLevelGrid(const VoxelSource& source, const NearLevelOptions& o) {
@@ -241,19 +267,35 @@ NearLevelGrid nearLevelGrid(const VoxelSource& source, const NearLevelOptions& o
     std::vector<float> ring;
     resizeLarge(ring, std::size_t(kWindow * slice));
     const auto sliceAt = [&](std::int64_t k) { return ring.data() + std::size_t((k % kWindow) * slice); };
+    // Each slice's row ranges, found once as it arrives (a layer's blocks take those of twelve slices,
+    // each slice serving one or two layers): lo then hi, rows of `stride` block columns from I0.
+    const std::int64_t stride = std::max<std::int64_t>(I1 - I0, 1);
+    std::vector<float> rowRing(std::size_t(kWindow * 2 * s.ny * stride));
+    const auto rowsOf = [&](std::int64_t k) { return rowRing.data() + std::size_t((k % kWindow) * 2 * s.ny * stride); };
+    const auto rangeRows = [&](std::int64_t k) {
+        float* lo = rowsOf(k);
+        tbb::parallel_for(tbb::blocked_range<std::int64_t>(0, s.ny, 16),
+                          [&](const tbb::blocked_range<std::int64_t>& js) {
+                              float l = 0, h = 0;  // the range comes from whole slices, below
+                              rowRanges(s, sliceAt(k), js.begin(), js.end(), I0, I1, stride, lo + js.begin() * stride,
+                                        lo + (s.ny + js.begin()) * stride, l, h);
+                          });
+    };
     std::vector<std::uint8_t> kind;
     std::vector<Leaf*> leaves;
-    tbb::enumerable_thread_specific<std::vector<float>> scratch;
     const auto buildLayer = [&](std::int64_t K) {
         const std::int64_t ni = I1 - I0;
         if (ni <= 0) return;
         kind.assign(std::size_t(s.by * ni), kOutside);
-        tbb::parallel_for(
-            tbb::blocked_range<std::int64_t>(0, s.by, 4), [&](const tbb::blocked_range<std::int64_t>& js) {
-                float lo = 0, hi = 0;  // the range comes from whole slices, below
-                classifyBlocks(s, K, js.begin(), js.end(), I0, I1, sliceAt, o.level, above, exteriorInside,
-                               kind.data() + std::size_t(js.begin() * ni), scratch.local(), lo, hi);
-            });
+        const auto rows = [&](std::int64_t k, std::int64_t j) {
+            const float* lo = rowsOf(k) + j * stride;
+            return std::pair<const float*, const float*>(lo, lo + s.ny * stride);
+        };
+        tbb::parallel_for(tbb::blocked_range<std::int64_t>(0, s.by, 4),
+                          [&](const tbb::blocked_range<std::int64_t>& js) {
+                              blockKinds(s, K, js.begin(), js.end(), I0, I1, rows, o.level, above, exteriorInside,
+                                         kind.data() + std::size_t(js.begin() * ni));
+                          });
         leaves.clear();
         addLayer(tree, K, s.by, I0, I1, kind.data(), fillOf(above, exteriorInside, 0, 0).tileKind, 0.f, leaves);
         tbb::parallel_for(std::size_t{0}, leaves.size(), [&](std::size_t n) { fillLeaf(*leaves[n], s, sliceAt, 0.f); });
@@ -281,6 +323,7 @@ NearLevelGrid nearLevelGrid(const VoxelSource& source, const NearLevelOptions& o
         stream.read(1, values);
         if (k == 0) lo = hi = values[0];  // as DenseVolume::range, over the whole volume in order
         detail::extendRange(values, std::size_t(slice), lo, hi);
+        if (I1 > I0) rangeRows(k);
         for (; K < s.bz && (k >= 8 * K + 9 || k + 1 == s.nz); ++K) buildLayer(K);
         if (o.progress) o.progress->update(std::size_t(k + 1), std::size_t(s.nz));
     }

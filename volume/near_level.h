@@ -51,7 +51,7 @@ struct NearLevelGrid {
 NearLevelGrid nearLevelGrid(const VoxelSource& source, const NearLevelOptions& options);
 
 /// The bytes of slices nearLevelGrid holds while it reads `source`: twelve slices as floats (all of them
-/// if fewer), and one as stored.
+/// if fewer) with their rows' ranges (two floats per row and block column), and one slice as stored.
 std::uint64_t nearLevelWindowBytes(const VoxelSource& source);
 
 }  // namespace isoforge::volume
