@@ -39,7 +39,8 @@ if [ "$mode" = "--sanitize-quick" ]; then
   slow=(Volumes.AalLabelSurfaces Scene.RealOpenScadExports Csg.VolumesOfBooleans OpenScad.FacetedPrimitives
         Scene.ExtrusionsTwistScale MarchingCubes.FogVolumes Scene.MeshAndVolumeStatements MarchingCubes.RandomNoise
         MarchingCubes.SmokeFogVolume OpenScad.PolyhedraWithConcaveFaces Simplify.FewerTriangles
-        Sharp.FeatureVerticesKeep Loop.Converges OpenScad.FlippedAndOpenPolyhedra)
+        Sharp.FeatureVerticesKeep Loop.Converges OpenScad.FlippedAndOpenPolyhedra
+        SlabsOfVolumes.AFileStreamedInPasses NearLevel.AStreamedGridIsTheGrid)
   skip=$(IFS='|'; echo "${slow[*]}")
   ctest --output-on-failure -j2 --timeout 600 -L "^(${labels})\$" -E "^(${skip})"
   exit
