@@ -111,6 +111,8 @@ PY
   flair=../shared/data/volumes/flair-oblique-nrrd/FLAIR.nrrd
   [ -f $flair ] && head -c 3000 $flair | seed 2 flair.nrrd
   printf 'NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 3 2\nspacings: 1 1 2\nencoding: raw\n\n0123456789ab' | seed 2 tiny.nrrd
+  # A detached header with a data file template, which teem hands to sprintf (checked before it does).
+  printf 'NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 3 2\nencoding: raw\ndata file: s.%%02d.raw 1 2 1\n' | seed 2 template.nrrd
   printf 'ObjectType = Image\nNDims = 3\nDimSize = 2 3 2\nElementSpacing = 1 1 2\nElementType = MET_UCHAR\nElementDataFile = LOCAL\n0123456789ab' | seed 3 tiny.mha
   run volume_readers 8192
 }

@@ -5,6 +5,8 @@
 
 #include <cstring>
 
+#include <tbb/global_control.h>
+
 #include "core/error.h"
 #include "test_util.h"
 #include "volume/bricked.h"
@@ -112,6 +114,42 @@ TEST(NearLevel, AStreamedGridIsTheGridOfTheVolumeInMemory) {
                 expectSameBlocks(*expected, *cut.grid, -8, 272);
             }
         }
+    }
+}
+
+TEST(NearLevel, AStreamedGridIsTheSameOnAnyThreadCount) {
+    // The CT series at bone on 1, 2 and 3 threads: the same leaves, tiles, background and range, and the
+    // whole volume's range (found in parallel chunks) is the same floats.
+    const fs::path path = test::sharedData() / "volumes/headsq-ct-nrrd/quarter.nhdr";
+    const std::optional<volume::VoxelSource> source = volume::voxelSource(path);
+    ASSERT_TRUE(source);
+    volume::NearLevelOptions o;
+    o.level = 1150.f;
+    openvdb::FloatGrid::Ptr reference;
+    std::pair<float, float> range;
+    for (int threads : {1, 2, 3}) {
+        SCOPED_TRACE(std::to_string(threads) + " threads");
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+        const volume::NearLevelGrid g = volume::nearLevelGrid(*source, o);
+        if (!reference) {
+            reference = g.grid;
+            range = g.range;
+            continue;
+        }
+        EXPECT_EQ(std::memcmp(&g.range, &range, sizeof range), 0);
+        expectSameBlocks(*reference, *g.grid, -1 << 30, 1 << 30);
+    }
+    std::vector<float> many(std::size_t(3) << 20);
+    for (std::size_t i = 0; i < many.size(); ++i) many[i] = float((i * 2654435761u) % 1000003) - 5e5f;
+    many[1 << 19] = -0.f;
+    float lo = many[0], hi = many[0];
+    volume::detail::extendRange(many.data(), many.size(), lo, hi);
+    for (int threads : {1, 3}) {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+        float a = many[0], b = many[0];
+        volume::detail::extendRange(many.data(), many.size(), a, b);
+        EXPECT_EQ(std::memcmp(&a, &lo, 4), 0);
+        EXPECT_EQ(std::memcmp(&b, &hi, 4), 0);
     }
 }
 

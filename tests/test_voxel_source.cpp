@@ -156,3 +156,35 @@ TEST(VoxelSource, CutAndCorruptDataIsAnErrorNamingTheFile) {
     EXPECT_THROW(volume::voxelSource(dir / "short.mhd"), IoError);
     fs::remove_all(dir);
 }
+
+// teem passes a "data file:" template to sprintf as it is: a file's "%s", "%n" or wide field would read or
+// write through stray arguments (fuzz_volume_readers found it). Such a template is the file's error, at its
+// line and column, both read whole and streamed; a template of one %d (with "%%") still reads its files.
+TEST(VoxelSource, ANrrdDataFileTemplateIsNeverAFormatString) {
+    const fs::path dir = test::scratchDir("voxel-source-template");
+    const std::string head = "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 3 2\nencoding: raw\n";
+    for (const char* bad : {"x%d%n", "%d%s", "%999999999d", "a%d.%d", "%16d", "%d%-5d", "q%%%d%x"}) {
+        SCOPED_TRACE(bad);
+        writeFile(dir / "bad.nhdr", head + "data file: " + std::string(bad) + " 1 2 1\n");
+        writeFile(dir / "bad.nrrd", head + "data file: " + std::string(bad) + " 1 2 1\r\n\r\n");
+        for (const char* name : {"bad.nhdr", "bad.nrrd"}) {
+            try {
+                volume::readVolume(dir / name);
+                ADD_FAILURE() << "read";
+            } catch (const IoError& e) {
+                EXPECT_NE(std::string(e.what()).find(std::string(name) + ":6:"), std::string::npos) << e.what();
+                EXPECT_NE(std::string(e.what()).find("one %d"), std::string::npos) << e.what();
+            }
+            EXPECT_THROW(volume::voxelSource(dir / name), IoError);
+        }
+    }
+    writeFile(dir / "q%.01.bin", "abcdef");
+    writeFile(dir / "q%.02.bin", "ghijkl");
+    writeFile(dir / "good.nhdr", head + "data file: q%%.%02d.bin 1 2 1\n");
+    const volume::DenseVolume v = volume::readVolume(dir / "good.nhdr");
+    ASSERT_EQ(v.values.size(), 12u);
+    EXPECT_EQ(v.values[0], float('a'));
+    EXPECT_EQ(v.values[11], float('l'));
+    expectReadVolumesVoxels(dir / "good.nhdr");
+    fs::remove_all(dir);
+}

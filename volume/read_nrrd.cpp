@@ -1,5 +1,6 @@
 // NRRD through teem's nrrd library: attached and detached headers (.nrrd, .nhdr), multi-file data
 // ("data file: quarter.%d 1 93 1"), raw, gzip and other encodings, space directions and origin.
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -143,9 +144,79 @@ std::uint64_t skipLines(const std::filesystem::path& file, std::uint64_t from, u
     return at;
 }
 
+/// teem's test for a "data file:" template (`_nrrdContainsPercentThisAndMore(info, 'd')`): the first '%' that
+/// is not "%%" is followed by digits and then 'd'.
+bool teemSeesTemplate(const std::string& value) {
+    std::size_t at = 0;
+    for (;;) {
+        at = value.find('%', at);
+        if (at == std::string::npos || at + 1 >= value.size()) return false;
+        if (value[at + 1] != '%') break;
+        at += 2;
+    }
+    std::size_t end = at + 1;
+    while (end < value.size() && std::isdigit(static_cast<unsigned char>(value[end]))) ++end;
+    return end < value.size() && value[end] == 'd';
+}
+
+/// teem hands a "data file:" template to sprintf as it stands ("slice.%03d.raw 1 93 1" -> slice.001.raw):
+/// a file's "%s" or "%n" reads or writes through a stray argument, a wide field ("%999999999d") overruns the
+/// name's buffer. So the header is read first, and a template is taken only with one "%d" (an optional
+/// width up to 15, zero padding) and "%%"s; anything else is this file's error, at its line and column.
+void checkDataFileTemplate(const std::filesystem::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::string line;
+    // Lines end as teem's do: "\n", "\r" or "\r\n".
+    const auto next = [&in](std::string& l) {
+        l.clear();
+        for (int c; (c = in.get()) != EOF;) {
+            if (c == '\n') return true;
+            if (c == '\r') {
+                if (in.peek() == '\n') in.get();
+                return true;
+            }
+            l += char(c);
+        }
+        return !l.empty();
+    };
+    for (int number = 1; next(line); ++number) {
+        if (line.empty() && number > 1) return;  // the blank line that ends the header
+        const std::size_t colon = line.find(':');
+        if (colon == std::string::npos || line.compare(colon, 2, ":=") == 0) continue;
+        std::string field;
+        for (char c : line.substr(0, colon))
+            if (c != ' ') field += char(std::tolower(static_cast<unsigned char>(c)));
+        if (field != "datafile") continue;
+        const std::size_t start = line.find_first_not_of(" \t", colon + 1);
+        if (start == std::string::npos) return;
+        const std::string value = line.substr(start);
+        if (!teemSeesTemplate(value)) return;
+        const std::string name = value.substr(0, value.find_first_of(" \t"));
+        int conversions = 0;
+        for (std::size_t i = 0; i < name.size(); ++i) {
+            if (name[i] != '%') continue;
+            if (i + 1 < name.size() && name[i + 1] == '%') {
+                ++i;
+                continue;
+            }
+            std::size_t end = i + 1;
+            while (end < name.size() && std::isdigit(static_cast<unsigned char>(name[end]))) ++end;
+            const bool fits = end - i - 1 <= 2 && (end == i + 1 || std::stoi(name.substr(i + 1, end - i - 1)) <= 15);
+            if (end >= name.size() || name[end] != 'd' || !fits || ++conversions > 1)
+                throw IoError(path.string() + ":" + std::to_string(number) + ":" + std::to_string(start + i + 1) +
+                              ": the data file template '" + name +
+                              "' may hold one %d (zero-padded to at most 15 digits, as in slice.%03d.raw) and %% "
+                              "for a percent sign, nothing else");
+            i = end;
+        }
+        return;
+    }
+}
+
 }  // namespace
 
 DenseVolume readNrrd(const std::filesystem::path& path) {
+    checkDataFileTemplate(path);
     std::lock_guard<std::mutex> lock(biffMutex());
     std::unique_ptr<Nrrd, NrrdNuke> n(nrrdNew());
     if (nrrdLoad(n.get(), path.c_str(), nullptr))
@@ -160,6 +231,7 @@ DenseVolume readNrrd(const std::filesystem::path& path) {
 }
 
 std::optional<VoxelSource> nrrdSource(const std::filesystem::path& path) {
+    checkDataFileTemplate(path);
     std::lock_guard<std::mutex> lock(biffMutex());
     std::unique_ptr<Nrrd, NrrdNuke> n(nrrdNew());
     std::unique_ptr<NrrdIoState, IoStateNix> nio(nrrdIoStateNew());
