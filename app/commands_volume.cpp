@@ -347,6 +347,7 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                 job.stats = a->stats;
                 job.output = a->output;
                 job.memoryLimit = memoryLimit;
+                job.memoryGiven = !a->memory.empty();
                 return job;
             };
             implicit::FieldPtr field;

@@ -33,13 +33,13 @@ int meshBySlabsToFile(const SlabMeshJob& job, const GlobalOptions& g) {
     if (job.memoryLimit < base + kMinimum)
         throw ResourceError("--memory " + mebibytes(job.memoryLimit) + " leaves nothing to mesh with: isoforge holds " +
                             mebibytes(base) + " before it starts; give at least " + mebibytes(base + kMinimum));
-    // A volume file: twelve of its slices are held while it streams past, and of the rest a third goes to
+    // A volume file: thirteen of its slices are held while it streams past, and of the rest a third goes to
     // the grid of a run of slabs (the blocks near the iso-value); the rest is a slab's mesh, the mesher's
     // scratch and the writer's buffers, which for CT come to about twice the slab's grid.
     const std::uint64_t window = job.source ? volume::nearLevelWindowBytes(*job.source) : 0;
     if (job.source && base + window + kMinimum > job.memoryLimit) {
         const auto& d = job.source->header.dims;
-        throw ResourceError(job.what + ": reading it holds 12 slices of " + std::to_string(d[0]) + " x " +
+        throw ResourceError(job.what + ": reading it holds 13 slices of " + std::to_string(d[0]) + " x " +
                             std::to_string(d[1]) + " voxels (" + mebibytes(window) + "), and --memory " +
                             mebibytes(job.memoryLimit) + " leaves " + mebibytes(job.memoryLimit - base) +
                             " beyond what isoforge holds already: raise --memory to at least " +
@@ -116,20 +116,27 @@ int meshBySlabsToFile(const SlabMeshJob& job, const GlobalOptions& g) {
         std::cerr << "isoforge: warning: no surface in " << job.what << "; writing an empty mesh\n";
     if (!g.quiet && job.source) {
         const volume::DenseVolume& h = job.source->header;
+        const glm::dvec3 sp = h.spacing();
+        const std::size_t files = h.files;
         std::printf(
-            "read %s (%s): %lld x %lld x %lld %s voxels, values %g .. %g, in %s pass%s over the file "
-            "(%s of slices and a grid of %s near the iso-value held) in %.3f s\n",
-            job.what.c_str(), h.format.c_str(), (long long)h.dims[0], (long long)h.dims[1], (long long)h.dims[2],
-            h.storedType.c_str(), double(read.range.first), double(read.range.second), withCommas(read.passes).c_str(),
-            read.passes == 1 ? "" : "es", mebibytes(read.windowBytes).c_str(), mebibytes(read.gridBytes).c_str(),
-            read.secondsRead);
+            "read %s (%s%s): %lld x %lld x %lld %s voxels, spacing %g x %g x %g mm, %s, values %g .. %g, in %s "
+            "pass%s over the file (%s of slices and a grid of %s near the iso-value held) in %.3f s\n",
+            job.what.c_str(), h.format.c_str(), files > 1 ? (", " + std::to_string(files) + " files").c_str() : "",
+            (long long)h.dims[0], (long long)h.dims[1], (long long)h.dims[2], h.storedType.c_str(), sp.x, sp.y, sp.z,
+            h.orientationCode().c_str(), double(read.range.first), double(read.range.second),
+            withCommas(read.passes).c_str(), read.passes == 1 ? "" : "es", mebibytes(read.windowBytes).c_str(),
+            mebibytes(read.gridBytes).c_str(), read.secondsRead);
     }
     if (!g.quiet) {
-        std::printf("meshed %s in %s slabs of %d voxels: %s vertices, %s triangles in %.3f s -> %s\n", job.what.c_str(),
-                    withCommas(st.slabs).c_str(), so.slabWidth, withCommas(writer.vertexCount()).c_str(),
-                    withCommas(writer.triangleCount()).c_str(), seconds, job.output.c_str());
-        std::printf("peak memory %s (limit %s; the largest slab %s)\n", mebibytes(volume::peakResidentMemory()).c_str(),
-                    mebibytes(job.memoryLimit).c_str(), mebibytes(st.maxSlabBytes).c_str());
+        std::printf("meshed %s in %s slab%s of %d voxels: %s vertices, %s triangles in %.3f s -> %s\n",
+                    job.what.c_str(), withCommas(st.slabs).c_str(), st.slabs == 1 ? "" : "s", so.slabWidth,
+                    withCommas(writer.vertexCount()).c_str(), withCommas(writer.triangleCount()).c_str(), seconds,
+                    job.output.c_str());
+        const std::string limit = job.memoryGiven
+                                      ? "limit " + mebibytes(job.memoryLimit)
+                                      : "within half of this machine's memory, " + mebibytes(job.memoryLimit);
+        std::printf("peak memory %s (%s; the largest slab %s)\n", mebibytes(volume::peakResidentMemory()).c_str(),
+                    limit.c_str(), mebibytes(st.maxSlabBytes).c_str());
     }
     if (job.stats)
         std::printf("sample %.3f s, mesh %.3f s, hand on %.3f s, write %.3f s; %s leaves\n", st.secondsSample,

@@ -29,6 +29,7 @@ struct SlabMeshJob {
     bool normals = false, indexSpace = false, ascii = false, stats = false;
     std::string output;
     std::uint64_t memoryLimit = 0;  ///< bytes: the peak resident memory to stay under
+    bool memoryGiven = true;        ///< --memory was given (else the limit is half the machine's, chosen for it)
 };
 
 /// Meshes the job into job.output, prints the summary unless quiet; returns the exit status.

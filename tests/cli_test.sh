@@ -327,9 +327,15 @@ if [ -f "$ct" ]; then
     "$bin" --quiet convert "$ct" -o "$tmp/ct.vdb" && "$bin" --quiet mesh "$tmp/ct.vdb" --iso 1000 --normals -o "$tmp/ct_whole.ply"
     expect_exit 0 "mesh CT (streamed by default)" "$bin" mesh "$ct" --iso 1000 --normals -o "$tmp/ct_streamed.ply"
     grep -q "in 1 pass over the file" "$tmp/out" && ok || { bad "mesh CT: not streamed"; cat "$tmp/out"; }
+    # The summary: what was read, as the in-memory path says it, and a limit chosen for the user.
+    grep -q "int16 voxels, spacing 3.2 x 3.2 x 1.5 mm, LPS, values 0 .. 3926, in 1 pass" "$tmp/out" && ok \
+        || { bad "mesh CT (streamed): the reading line lacks spacing, orientation or range"; cat "$tmp/out"; }
+    grep -q "^peak memory .* (within half of this machine's memory, " "$tmp/out" && ok \
+        || { bad "mesh CT (streamed): the summary does not say the limit was chosen"; cat "$tmp/out"; }
     cmp -s "$tmp/ct_whole.ply" "$tmp/ct_streamed.ply" && ok || bad "mesh CT (streamed): not the whole grid's bytes"
     expect_exit 0 "mesh CT --memory" "$bin" mesh "$ct" --iso 1000 --normals -o "$tmp/ct_slabs.ply" --memory 500M
     cmp -s "$tmp/ct_whole.ply" "$tmp/ct_slabs.ply" && ok || bad "mesh CT --memory: not the whole grid's bytes"
+    grep -q "^peak memory .* (limit 500 MiB; " "$tmp/out" && ok || { bad "mesh CT --memory: no limit in the summary"; cat "$tmp/out"; }
     # Inside below, where the exterior is the volume's minimum (inside) as in the whole grid.
     "$bin" --quiet mesh "$tmp/ct.vdb" --iso 1000 --inside below -o "$tmp/ct_below_whole.ply"
     expect_exit 0 "mesh CT --inside below (streamed)" "$bin" mesh "$ct" --iso 1000 --inside below -o "$tmp/ct_below.ply"
@@ -367,7 +373,7 @@ for limit in 150 125; do  # 46 MiB of grid near the level: one pass or two, as t
         || { bad "mesh NIfTI --memory ${limit}M: peak memory not under the limit"; cat "$tmp/out"; }
 done
 rm -f "$tmp/wide.nii" "$tmp/wide.vdb"
-# Twelve slices of a 1024 x 1024 raw volume (49 MiB) and the process do not fit in 130M: refused with the figure.
+# Thirteen slices of a 1024 x 1024 raw volume (53 MiB) and the process do not fit in 130M: refused with the figure.
 truncate -s $((1024 * 1024 * 16)) "$tmp/zeros.raw"
 expect_exit 1 "mesh volume --memory (its slices cannot fit)" "$bin" mesh "$tmp/zeros.raw" --dims 1024,1024,16 --type uint8 --iso 0.5 -o "$tmp/x.ply" --memory 130M
 grep -q "raise --memory to at least" "$tmp/err" && ok || { bad "mesh volume --memory: no estimate when its slices cannot fit"; cat "$tmp/err"; }

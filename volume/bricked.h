@@ -77,7 +77,7 @@ void meshVolumeBySlabs(const VolumeView& volume, const ToGridOptions& grid, cons
 
 /// The same for a volume file whose voxels stream past (volume/near_level.h): each pass over the file
 /// builds the grid of the blocks near the iso-value (toGridNearLevel's) for a run of slabs, holding
-/// twelve slices at a time, and meshes them. A grid that outgrows `gridBudget` bytes drops its last
+/// thirteen slices at a time, and meshes them. A grid that outgrows `gridBudget` bytes drops its last
 /// slabs, which the next pass takes; so a volume is read once unless its surface does not fit. The same
 /// pieces as meshVolumeBySlabs on the whole volume (whose background is its minimum).
 /// @throw ResourceError when one slab's grid alone outgrows the budget ("outgrew")

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <future>
 #include <limits>
 #include <stdexcept>
 
@@ -22,6 +23,9 @@ namespace {
 
 using Tree = openvdb::FloatGrid::TreeType;
 using Leaf = Tree::LeafNodeType;
+
+/// The slices a streamed pass holds: the twelve that a layer of blocks needs, and the next one read meanwhile.
+constexpr std::int64_t kRingSlices = 13;
 
 /// A volume's voxels and its 8^3 blocks.
 struct Shape {
@@ -236,7 +240,7 @@ std::uint64_t nearLevelWindowBytes(const VoxelSource& source) {
     const auto& d = source.header.dims;
     const auto n = [](std::int64_t a) { return std::uint64_t(std::max<std::int64_t>(a, 0)); };
     const std::uint64_t slice = n(d[0]) * n(d[1]), rows = n(d[1]) * ((n(d[0]) + 7) / 8) * 2 * sizeof(float);
-    return std::min<std::uint64_t>(12, n(d[2])) * (slice * sizeof(float) + rows) +
+    return std::min<std::uint64_t>(kRingSlices, n(d[2])) * (slice * sizeof(float) + rows) +
            slice * detail::typeSize(source.header.storedType);
 }
 
@@ -262,8 +266,9 @@ NearLevelGrid nearLevelGrid(const VoxelSource& source, const NearLevelOptions& o
         r.grid = grid;
         return r;
     }
-    // Layer K's blocks need slices 8K - 2 .. 8K + 9: twelve slices in a ring.
-    const std::int64_t kWindow = std::min<std::int64_t>(12, s.nz);
+    // Layer K's blocks need slices 8K - 2 .. 8K + 9: twelve slices in a ring, and a thirteenth that the
+    // next slice is read into while the main thread works on the last one.
+    const std::int64_t kWindow = std::min<std::int64_t>(kRingSlices, s.nz);
     std::vector<float> ring;
     resizeLarge(ring, std::size_t(kWindow * slice));
     const auto sliceAt = [&](std::int64_t k) { return ring.data() + std::size_t((k % kWindow) * slice); };
@@ -315,12 +320,19 @@ NearLevelGrid nearLevelGrid(const VoxelSource& source, const NearLevelOptions& o
         }
     };
     SliceStream stream(source);
+    // The file is read one slice ahead on another thread (its bytes and their conversion), into the slot
+    // that no layer still to be built needs; what the main thread does is the same whatever the timing.
+    const auto readInto = [&stream](float* out) {
+        return std::async(std::launch::async, [&stream, out] { stream.read(1, out); });
+    };
+    std::future<void> next = readInto(sliceAt(0));
     float lo = 0, hi = 0;
     std::int64_t K = 0;  // the next layer to build
     if (o.progress) o.progress->begin("reading " + source.header.format + " slices");
     for (std::int64_t k = 0; k < s.nz; ++k) {
         float* values = sliceAt(k);
-        stream.read(1, values);
+        next.get();
+        if (k + 1 < s.nz) next = readInto(sliceAt(k + 1));
         if (k == 0) lo = hi = values[0];  // as DenseVolume::range, over the whole volume in order
         detail::extendRange(values, std::size_t(slice), lo, hi);
         if (I1 > I0) rangeRows(k);

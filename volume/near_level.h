@@ -1,6 +1,6 @@
 #pragma once
 /// @file Grids for one iso-level built while a volume file's slices stream past: toGridNearLevel's grid
-/// (volume/dense_grid.h) without the volume in memory. One pass over the file holds twelve slices at a
+/// (volume/dense_grid.h) without the volume in memory. One pass over the file holds thirteen slices at a
 /// time and the grid, whose blocks follow the surface: for a CT scan at a bone level a few percent of
 /// the volume. `isoforge mesh VOLUME --memory` and isoforge-mpi build their slabs' grids this way.
 
@@ -50,7 +50,7 @@ struct NearLevelGrid {
 /// @throw IoError when the file is cut or corrupt (voxel_source.h); ResourceError as above
 NearLevelGrid nearLevelGrid(const VoxelSource& source, const NearLevelOptions& options);
 
-/// The bytes of slices nearLevelGrid holds while it reads `source`: twelve slices as floats (all of them
+/// The bytes of slices nearLevelGrid holds while it reads `source`: thirteen slices as floats (all of them
 /// if fewer) with their rows' ranges (two floats per row and block column), and one slice as stored.
 std::uint64_t nearLevelWindowBytes(const VoxelSource& source);
 
