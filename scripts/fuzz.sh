@@ -50,6 +50,16 @@ run() {  # target max_len [seconds]: bounded total time (or FUZZ_RUNS), input le
       # A failure's whole report (the stacks above libFuzzer's last lines) is kept beside the artifacts.
       [ "$status" -ne 0 ] && printf '%s\n' "$out" > "build-fuzz/fuzz_$1-failure.log" &&
         echo "(whole output: build-fuzz/fuzz_$1-failure.log)"
+      # The input itself, in base64 when small, so that a CI log alone lets it be replayed
+      # (base64 -d > unit; build-fuzz/fuzz_TARGET unit).
+      local unit
+      unit=$(sed -n 's/.*Test unit written to \(.*\)$/\1/p' <<< "$out" | tail -1)
+      if [ "$status" -ne 0 ] && [ -f "$unit" ] && [ "$(stat -c %s "$unit")" -le 16384 ]; then
+        echo "(the input, base64: $(base64 -w0 "$unit"))"
+      fi
+      # The start of the report (the stack), which the last lines below leave out.
+      [ "$status" -ne 0 ] && grep -m1 -A30 -E '==[0-9]+== ?ERROR|DEADLYSIGNAL|runtime error:' <<< "$out" |
+        head -31 || true
       tail -12 <<< "$out"
       break
     fi
