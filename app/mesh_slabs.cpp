@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <iostream>
 
+#include "app/volume_input.h"
 #include "core/error.h"
 #include "core/number_text.h"
 #include "core/progress.h"
@@ -115,17 +116,11 @@ int meshBySlabsToFile(const SlabMeshJob& job, const GlobalOptions& g) {
     if (writer.triangleCount() == 0)
         std::cerr << "isoforge: warning: no surface in " << job.what << "; writing an empty mesh\n";
     if (!g.quiet && job.source) {
-        const volume::DenseVolume& h = job.source->header;
-        const glm::dvec3 sp = h.spacing();
-        const std::size_t files = h.files;
         std::printf(
-            "read %s (%s%s): %lld x %lld x %lld %s voxels, spacing %g x %g x %g mm, %s, values %g .. %g, in %s "
-            "pass%s over the file (%s of slices and a grid of %s near the iso-value held) in %.3f s\n",
-            job.what.c_str(), h.format.c_str(), files > 1 ? (", " + std::to_string(files) + " files").c_str() : "",
-            (long long)h.dims[0], (long long)h.dims[1], (long long)h.dims[2], h.storedType.c_str(), sp.x, sp.y, sp.z,
-            h.orientationCode().c_str(), double(read.range.first), double(read.range.second),
-            withCommas(read.passes).c_str(), read.passes == 1 ? "" : "es", mebibytes(read.windowBytes).c_str(),
-            mebibytes(read.gridBytes).c_str(), read.secondsRead);
+            "%s, in %s pass%s over the file (%s of slices and a grid of %s near the iso-value held) in %.3f s\n",
+            readSummary(job.what, job.source->header, read.range).c_str(), withCommas(read.passes).c_str(),
+            read.passes == 1 ? "" : "es", mebibytes(read.windowBytes).c_str(), mebibytes(read.gridBytes).c_str(),
+            read.secondsRead);
     }
     if (!g.quiet) {
         std::printf("meshed %s in %s slab%s of %d voxels: %s vertices, %s triangles in %.3f s -> %s\n",

@@ -48,17 +48,18 @@ volume::DenseVolume loadVolume(const std::string& path, const VolumeInput& in, c
     const auto t0 = std::chrono::steady_clock::now();
     volume::DenseVolume v = volume::readVolume(path, o);
     const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    if (!g.quiet) {
-        const glm::dvec3 sp = v.spacing();
-        const auto [lo, hi] = v.range();
-        std::printf(
-            "read %s (%s%s): %lld x %lld x %lld %s voxels, spacing %g x %g x %g mm, %s, values %g .. %g%s in "
-            "%.3f s\n",
-            path.c_str(), v.format.c_str(), v.files > 1 ? (", " + std::to_string(v.files) + " files").c_str() : "",
-            (long long)v.dims[0], (long long)v.dims[1], (long long)v.dims[2], v.storedType.c_str(), sp.x, sp.y, sp.z,
-            v.orientationCode().c_str(), double(lo), double(hi), v.units.empty() ? "" : (" " + v.units).c_str(), s);
-    }
+    if (!g.quiet) std::printf("%s in %.3f s\n", readSummary(path, v, v.range()).c_str(), s);
     return v;
+}
+
+std::string readSummary(const std::string& path, const volume::DenseVolume& v, std::pair<float, float> range) {
+    const glm::dvec3 sp = v.spacing();
+    char line[1024];
+    std::snprintf(line, sizeof line, ": %lld x %lld x %lld %s voxels, spacing %g x %g x %g mm, %s, values %g .. %g",
+                  (long long)v.dims[0], (long long)v.dims[1], (long long)v.dims[2], v.storedType.c_str(), sp.x, sp.y,
+                  sp.z, v.orientationCode().c_str(), double(range.first), double(range.second));
+    return "read " + path + " (" + v.format + (v.files > 1 ? ", " + std::to_string(v.files) + " files" : "") + ")" +
+           line + (v.units.empty() ? "" : " " + v.units);
 }
 
 openvdb::FloatGrid::Ptr volumeGrid(const volume::DenseVolume& v, const VolumeInput& in, int smooth,

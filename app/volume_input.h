@@ -45,4 +45,8 @@ openvdb::FloatGrid::Ptr volumeGridNearLevel(const volume::DenseVolume& v, float 
 /// What `isoforge info` prints about a dense volume.
 std::string describeVolume(const std::string& path, const volume::DenseVolume& v);
 
+/// The summary's "read" line up to the range, as every path that reads a volume says it: "read PATH (FORMAT,
+/// N files): X x Y x Z TYPE voxels, spacing ... mm, LPS, values LO .. HI[ UNITS]" (no newline).
+std::string readSummary(const std::string& path, const volume::DenseVolume& v, std::pair<float, float> range);
+
 }  // namespace isoforge::app

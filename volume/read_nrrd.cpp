@@ -165,6 +165,9 @@ bool teemSeesTemplate(const std::string& value) {
 /// width up to 15, zero padding) and "%%"s; anything else is this file's error, at its line and column.
 void checkDataFileTemplate(const std::filesystem::path& path) {
     std::ifstream in(path, std::ios::binary);
+    char magic[4] = {};
+    if (!in.read(magic, 4) || std::string(magic, 4) != "NRRD") return;  // teem refuses it itself
+    in.seekg(0);
     std::string line;
     // Lines end as teem's do: "\n", "\r" or "\r\n".
     const auto next = [&in](std::string& l) {
@@ -180,7 +183,7 @@ void checkDataFileTemplate(const std::filesystem::path& path) {
         return !l.empty();
     };
     for (int number = 1; next(line); ++number) {
-        if (line.empty() && number > 1) return;  // the blank line that ends the header
+        if (line.empty()) return;  // the blank line that ends the header
         const std::size_t colon = line.find(':');
         if (colon == std::string::npos || line.compare(colon, 2, ":=") == 0) continue;
         std::string field;
