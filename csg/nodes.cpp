@@ -1,5 +1,8 @@
 #include "csg/nodes.h"
 
+#include "implicit/box_union.h"
+#include "implicit/scratch.h"
+
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -28,6 +31,7 @@ public:
         for (const auto& child : children_) {
             material_ = material_ || child->hasMaterial();
             cheap_ = cheap_ && child->cheapGradient();
+            both_.push_back(child->cheapGradient() && !child->valueFirst());
         }
     }
 
@@ -38,9 +42,9 @@ public:
     }
     void values(std::span<const glm::vec3> p, std::span<float> out) const override {
         children_[0]->values(p, out);
-        std::vector<float> tmp(p.size());
+        implicit::Scratch<float> tmp(p.size());
         for (std::size_t i = 1; i < children_.size(); ++i) {
-            children_[i]->values(p, tmp);
+            children_[i]->values(p, tmp.span());
             for (std::size_t k = 0; k < p.size(); ++k) out[k] = combine(out[k], other(tmp[k]));
         }
     }
@@ -128,8 +132,9 @@ public:
         valueAndGradient(p, g);
         return g;
     }
-    /// The children with cheap gradients give theirs with their values; the others' values alone,
-    /// and the deciding child's gradient afterwards (central differences for one child, not all).
+    /// The children with cheap gradients (nested booleans of primitives) give theirs with their
+    /// values; the others (and primitives, valueFirst) their values alone, and the deciding child its
+    /// gradient afterwards (central differences or a primitive's gradient for one child, not all).
     float valueAndGradient(const glm::vec3& p, glm::vec3& g) const override {
         if (k_ > 0) {
             g = Field::gradient(p);
@@ -140,7 +145,7 @@ public:
         float v = 0.f;
         for (std::size_t i = 0; i < children_.size(); ++i) {
             glm::vec3 gi(0.f);
-            const bool cheap = children_[i]->cheapGradient();
+            const bool cheap = both_[i];
             float c = cheap ? children_[i]->valueAndGradient(p, gi) : children_[i]->value(p);
             if (i > 0) c = other(c);
             if (i == 0 || (isMin() ? c < v : c > v)) {
@@ -182,7 +187,8 @@ private:
     std::vector<FieldPtr> children_;
     float k_;
     bool material_ = false;
-    bool cheap_ = k_ == 0;  ///< every child's gradient exact and cheap (cheapGradient)
+    bool cheap_ = k_ == 0;    ///< every child's gradient exact and cheap (cheapGradient)
+    std::vector<char> both_;  ///< per child: ask for its value and gradient at once (else its value first)
 };
 
 class Colored final : public implicit::Field {
@@ -212,6 +218,7 @@ public:
     glm::vec3 gradient(const glm::vec3& p) const override { return child_->gradient(p); }
     float valueAndGradient(const glm::vec3& p, glm::vec3& g) const override { return child_->valueAndGradient(p, g); }
     bool cheapGradient() const override { return child_->cheapGradient(); }
+    bool valueFirst() const override { return child_->valueFirst(); }
 
 private:
     FieldPtr child_;
@@ -231,6 +238,15 @@ public:
 FieldPtr makeBoolean(BoolOp op, std::vector<FieldPtr> children, float blend) {
     if (children.empty()) throw std::invalid_argument("a boolean needs at least one child");
     if (!(blend >= 0.f)) throw std::invalid_argument("the blend radius must not be negative");
+    // Runs of boxes under translations (OpenSCAD's cubes) become one union evaluated in a loop; the
+    // values and gradients stay the same bits (implicit/box_union.h).
+    if (blend == 0.f && op == BoolOp::Union) {
+        children = implicit::groupBoxes(std::move(children));
+    } else if (blend == 0.f && op == BoolOp::Difference && children.size() > 2) {
+        std::vector<FieldPtr> rest = implicit::groupBoxes({children.begin() + 1, children.end()});
+        rest.insert(rest.begin(), children[0]);
+        children = std::move(rest);
+    }
     if (children.size() == 1) return children[0];
     return std::make_shared<Boolean>(op, std::move(children), blend);
 }

@@ -61,6 +61,7 @@ public:
     }
     Box3 bounds() const override { return box_; }
     bool cheapGradient() const override { return true; }
+    bool valueFirst() const override { return true; }
     glm::vec3 gradient(const glm::vec3& p) const override {
         float v = -INFINITY;
         std::size_t best = 0;

@@ -5,6 +5,7 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <vector>
 
 #include <glm/vec3.hpp>
 #include <glm/vec4.hpp>
@@ -39,6 +40,7 @@ struct Material {
 
 class Field;
 using FieldPtr = std::shared_ptr<const Field>;
+struct BoxTerm;  // implicit/box_union.h
 
 /// A field's simplification over a box together with its bound there (Field::prune).
 struct Pruned {
@@ -70,6 +72,15 @@ public:
     /// differences): a boolean asks such children for both at once and the others for their values
     /// only, so that a gradient through nested booleans walks the tree once, not once per level.
     virtual bool cheapGradient() const { return false; }
+    /// True for a primitive whose value alone costs clearly less than its value and gradient together
+    /// (a box, a sphere, a plane, a polytope), also under transforms and colours: a boolean asks such
+    /// children for their values only, and the one that decides for its gradient afterwards. The
+    /// numbers are the same either way; most of a union's children do not decide.
+    virtual bool valueFirst() const { return false; }
+    /// A box, or boxes under translations and unions of them: appends them to `out` (self: this
+    /// field's own pointer) and returns true, so that a union can evaluate them all in one loop
+    /// (implicit/box_union.h); false, leaving `out` as it was, for anything else.
+    virtual bool asBoxes(const FieldPtr& self, std::vector<BoxTerm>& out) const { return false; }
     /// True when |value| never exceeds the distance to the surface and the field is 1-Lipschitz,
     /// so that values are usable as (conservative) distances: sphere tracing, narrow bands.
     virtual bool isDistance() const { return true; }

@@ -1,5 +1,9 @@
 #include "implicit/primitives.h"
 
+#include "implicit/box_distance.h"
+#include "implicit/box_union.h"
+#include "implicit/scratch.h"
+
 #include <array>
 #include <cmath>
 #include <sstream>
@@ -44,15 +48,36 @@ private:
     const Derived& self() const { return static_cast<const Derived&>(*this); }
 };
 
+/// The exact range over a box of a field that grows with each |p_k| (a sphere's or a centred box's
+/// distance): its values at the point of the box nearest the origin on every axis and at the one
+/// farthest from it. eval rounds monotonically (abs, +, *, sqrt, min, max), so no point of the box
+/// gives less or more. Far tighter than the Lipschitz bound, so pruning keeps fewer boxes (a block
+/// of a Menger sponge kept a hundred of its bars).
+template <class F>
+Interval boundBySymmetry(const Box3& b, const F& eval) {
+    glm::vec3 nearest, farthest;
+    for (int k = 0; k < 3; ++k) {
+        const float lo = b.min[k], hi = b.max[k];
+        nearest[k] = lo > 0.f ? lo : (hi < 0.f ? -hi : 0.f);
+        farthest[k] = std::max(std::abs(lo), std::abs(hi));
+    }
+    return {eval(nearest), eval(farthest)};
+}
+
 class Sphere final : public Primitive<Sphere> {
 public:
     explicit Sphere(float r) : r_(r) {}
     float eval(const glm::vec3& p) const { return glm::length(p) - r_; }
+    Interval bound(const Box3& b) const override {
+        if (b.isEmpty()) return Primitive::bound(b);
+        return boundBySymmetry(b, [this](const glm::vec3& p) { return eval(p); });
+    }
     glm::vec3 gradient(const glm::vec3& p) const override {
         const float l = glm::length(p);
         return l > 0 ? p / l : glm::vec3(0, 0, 1);
     }
     bool cheapGradient() const override { return true; }
+    bool valueFirst() const override { return true; }
     Box3 bounds() const override { return {glm::vec3(-r_), glm::vec3(r_)}; }
     std::string describe() const override { return fmt("sphere", {{"r", r_}}); }
 
@@ -76,6 +101,7 @@ public:
     }
     glm::vec3 gradient(const glm::vec3&) const override { return n_; }
     bool cheapGradient() const override { return true; }
+    bool valueFirst() const override { return true; }
     Box3 bounds() const override { return Box3::everything(); }
     std::string describe() const override {
         return fmt("plane", {{"nx", n_.x}, {"ny", n_.y}, {"nz", n_.z}, {"d", d_}});
@@ -86,11 +112,6 @@ private:
     float d_;
 };
 
-float boxDistance(const glm::vec3& p, const glm::vec3& half) {
-    const glm::vec3 q = glm::abs(p) - half;
-    return glm::length(glm::max(q, glm::vec3(0.f))) + std::min(std::max(q.x, std::max(q.y, q.z)), 0.f);
-}
-
 class Box final : public Primitive<Box> {
 public:
     Box(glm::vec3 size, float rounding) : half_(0.5f * size - glm::vec3(rounding)), r_(rounding), size_(size) {
@@ -99,7 +120,12 @@ public:
             throw std::invalid_argument("box: rounding must be between 0 and half the smallest size");
     }
     float eval(const glm::vec3& p) const { return boxDistance(p, half_) - r_; }
+    Interval bound(const Box3& b) const override {
+        if (b.isEmpty()) return Primitive::bound(b);
+        return boundBySymmetry(b, [this](const glm::vec3& p) { return eval(p); });
+    }
     bool cheapGradient() const override { return true; }
+    bool valueFirst() const override { return true; }
     /// Exact on either side of an edge: outside, towards the nearest point; inside, the nearest face's normal.
     glm::vec3 gradient(const glm::vec3& p) const override {
         glm::vec3 g(0.f);
@@ -108,19 +134,11 @@ public:
     }
     /// eval(p) and gradient(p) from one q = |p| - half (the same arithmetic as boxDistance).
     float valueAndGradient(const glm::vec3& p, glm::vec3& g) const override {
-        const glm::vec3 q = glm::abs(p) - half_;
-        const glm::vec3 side(p.x < 0 ? -1.f : 1.f, p.y < 0 ? -1.f : 1.f, p.z < 0 ? -1.f : 1.f);
-        const glm::vec3 out = glm::max(q, glm::vec3(0.f));
-        const float len = glm::length(out);
-        const float inside = std::min(std::max(q.x, std::max(q.y, q.z)), 0.f);
-        if (len > 0) {
-            g = side * out / len;
-        } else {
-            const int k = q.x >= q.y && q.x >= q.z ? 0 : (q.y >= q.z ? 1 : 2);
-            g = glm::vec3(0.f);
-            g[k] = side[k];
-        }
-        return len + inside - r_;
+        return boxValueAndGradient(p, half_, r_, g);
+    }
+    bool asBoxes(const FieldPtr& self, std::vector<BoxTerm>& out) const override {
+        out.push_back({self, half_, r_, {}});
+        return true;
     }
     Box3 bounds() const override { return {-0.5f * size_, 0.5f * size_}; }
     std::string describe() const override {
@@ -321,20 +339,11 @@ public:
           shift_(like.shift_) {}
     float value(const glm::vec3& p) const override { return child_->value(local(p)) * scale_; }
     void values(std::span<const glm::vec3> p, std::span<float> out) const override {
-        // One scratch buffer per nesting depth: a transform under a transform must not overwrite
+        // A scratch buffer of its nesting depth: a transform under a transform must not overwrite
         // the points its parent (or a boolean's next child) still reads.
-        thread_local std::vector<std::vector<glm::vec3>> pool;
-        thread_local std::size_t depth = 0;
-        if (pool.size() <= depth) pool.resize(depth + 1);
-        std::vector<glm::vec3>& q = pool[depth];
-        q.resize(p.size());
+        Scratch<glm::vec3> q(p.size());
         for (std::size_t i = 0; i < p.size(); ++i) q[i] = local(p[i]);
-        struct Nest {
-            std::size_t& d;
-            explicit Nest(std::size_t& x) : d(++x) {}
-            ~Nest() { --d; }
-        } nest(depth);
-        child_->values(q, out);
+        child_->values(q.span(), out);
         for (float& v : out) v *= scale_;
     }
     Interval bound(const Box3& box) const override {
@@ -361,6 +370,21 @@ public:
         return v * scale_;
     }
     bool cheapGradient() const override { return child_->cheapGradient(); }
+    bool valueFirst() const override { return child_->valueFirst(); }
+    /// A translation of boxes: each of them with this shift first (the same local points, bit for bit).
+    bool asBoxes(const FieldPtr&, std::vector<BoxTerm>& out) const override {
+        if (!translation_ || scale_ != 1.f) return false;
+        const std::size_t first = out.size();
+        if (!child_->asBoxes(child_, out)) {
+            out.resize(first);
+            return false;
+        }
+        for (std::size_t i = first; i < out.size(); ++i) {
+            out[i].field = std::make_shared<Transformed>(out[i].field, *this);
+            out[i].shifts.insert(out[i].shifts.begin(), shift_);
+        }
+        return true;
+    }
     bool hasMaterial() const override { return child_->hasMaterial(); }
     bool translucent(bool inherited) const override { return child_->translucent(inherited); }
 
@@ -438,6 +462,7 @@ public:
         return apply(v);
     }
     bool cheapGradient() const override { return child_->cheapGradient(); }
+    bool valueFirst() const override { return child_->valueFirst(); }
     Pruned prune(const Box3& box) const override {
         const Pruned c = child_->prune(box);
         return {c.field ? std::make_shared<Offset>(c.field, r_, shell_) : nullptr,
