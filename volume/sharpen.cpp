@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 #include <openvdb/tools/Interpolation.h>
@@ -119,9 +120,21 @@ void jacobi(glm::dmat3 a, glm::dvec3& eigenvalues, glm::dmat3& vectors) {
     eigenvalues = glm::dvec3(a[0][0], a[1][1], a[2][2]);
 }
 
-struct Patch {
-    std::vector<std::size_t> triangles;  // in mesh order
-    std::vector<unsigned> loop;          // boundary vertices in the patch's orientation
+/// Marching cubes makes at most 5 triangles in a cell; a cell with more is left as it is.
+constexpr std::size_t kMaxTriangles = 8;
+
+/// A patch's boundary vertices in the patch's orientation, while it is being followed: at most one
+/// per directed edge of its triangles, and one more (a loop that does not close).
+struct Loop {
+    std::array<unsigned, 3 * kMaxTriangles + 1> v{};
+    std::size_t n = 0;
+    std::size_t size() const { return n; }
+    unsigned operator[](std::size_t i) const { return v[i]; }
+    unsigned front() const { return v[0]; }
+    unsigned back() const { return v[n - 1]; }
+    void push_back(unsigned x) { v[n++] = x; }
+    const unsigned* begin() const { return v.data(); }
+    const unsigned* end() const { return v.data() + n; }
 };
 
 /// Follows creases across cells (Kobbelt et al.'s edge flip): two fan triangles (c1, a, b) and
@@ -137,30 +150,45 @@ std::size_t flipCreases(const std::vector<glm::vec3>& P, std::vector<glm::uvec3>
     auto isApex = [&](unsigned v) { return v >= firstApex; };
     auto edgeKey = [](unsigned a, unsigned b) { return (std::uint64_t(std::min(a, b)) << 32) | std::max(a, b); };
     // Only fan triangles (apex first) matter: a candidate's two triangles are fans, every edge a flip
-    // adds or changes has an apex at one end, and a feature cell holds only its fan.
-    std::unordered_map<std::uint64_t, std::array<std::int64_t, 2>> edgeTris;
-    edgeTris.reserve(
-        3 * std::size_t(std::count_if(tris.begin(), tris.end(), [&](const glm::uvec3& t) { return isApex(t.x); })));
-    std::vector<std::vector<std::size_t>> inCell(cellCount);
-    for (std::size_t t = 0; t < tris.size(); ++t) {
-        if (!isApex(tris[t].x)) continue;
-        for (int k = 0; k < 3; ++k) {
-            auto [it, added] = edgeTris.try_emplace(edgeKey(tris[t][k], tris[t][(k + 1) % 3]),
-                                                    std::array<std::int64_t, 2>{std::int64_t(t), -1});
-            if (!added) it->second[1] = std::int64_t(t);
-        }
-        if (cellOf[t] >= 0) inCell[std::size_t(cellOf[t])].push_back(t);
+    // adds or changes has an apex at one end, and a feature cell holds only its fan. Their edges as
+    // (key, triangle), sorted: an edge's triangles are neighbours, in mesh order.
+    std::vector<std::size_t> fans;
+    for (std::size_t t = 0; t < tris.size(); ++t)
+        if (isApex(tris[t].x)) fans.push_back(t);
+    std::vector<std::pair<std::uint64_t, std::size_t>> edgeTris(3 * fans.size());
+    tbb::parallel_for(std::size_t{0}, fans.size(), [&](std::size_t i) {
+        const glm::uvec3& t = tris[fans[i]];
+        for (int k = 0; k < 3; ++k) edgeTris[3 * i + std::size_t(k)] = {edgeKey(t[k], t[(k + 1) % 3]), fans[i]};
+    });
+    tbb::parallel_sort(edgeTris.begin(), edgeTris.end());
+    // Each cell's fan triangles (cellFans from cellStart[c] to cellStart[c + 1]), in mesh order.
+    std::vector<std::size_t> cellStart(cellCount + 1, 0), cellFans;
+    for (std::size_t t : fans)
+        if (cellOf[t] >= 0) ++cellStart[std::size_t(cellOf[t]) + 1];
+    for (std::size_t c = 0; c < cellCount; ++c) cellStart[c + 1] += cellStart[c];
+    cellFans.resize(cellStart.back());
+    {
+        std::vector<std::size_t> next(cellStart.begin(), cellStart.end() - 1);
+        for (std::size_t t : fans)
+            if (cellOf[t] >= 0) cellFans[next[std::size_t(cellOf[t])]++] = t;
     }
-    // Candidates: an edge between two fan triangles whose apexes are feature vertices of two cells.
-    std::vector<std::uint64_t> candidates;
-    for (const auto& [key, ts] : edgeTris) {
-        if (ts[1] < 0) continue;
-        const glm::uvec3 &t1 = tris[std::size_t(ts[0])], &t2 = tris[std::size_t(ts[1])];
-        if (isApex(t1.x) && isApex(t2.x) && t1.x != t2.x && !isApex(unsigned(key >> 32)) &&
+    // Candidates, in key order: an edge between two fan triangles (the first and the last of its
+    // triangles) whose apexes are the feature vertices of two cells.
+    struct Candidate {
+        std::uint64_t key;
+        std::size_t t1, t2;
+    };
+    std::vector<Candidate> candidates;
+    for (std::size_t i = 0; i < edgeTris.size();) {
+        std::size_t j = i + 1;
+        while (j < edgeTris.size() && edgeTris[j].first == edgeTris[i].first) ++j;
+        const std::uint64_t key = edgeTris[i].first;
+        const std::size_t t1 = edgeTris[i].second, t2 = edgeTris[j - 1].second;
+        if (j - i >= 2 && tris[t1].x != tris[t2].x && !isApex(unsigned(key >> 32)) &&
             !isApex(unsigned(key & 0xffffffffu)))
-            candidates.push_back(key);
+            candidates.push_back({key, t1, t2});
+        i = j;
     }
-    std::sort(candidates.begin(), candidates.end());
     auto unit = [](const glm::dvec3& v) {
         const double l = glm::length(v);
         return l > 0 ? v / l : glm::dvec3(0.0);
@@ -186,9 +214,8 @@ std::size_t flipCreases(const std::vector<glm::vec3>& P, std::vector<glm::uvec3>
         Bounds box;
         for (std::size_t c = begin; c < end; ++c) {
             Turn& u = turns[c];
-            const auto ts = edgeTris.at(candidates[c]);
-            u.i1 = std::size_t(ts[0]);
-            u.i2 = std::size_t(ts[1]);
+            u.i1 = candidates[c].t1;
+            u.i2 = candidates[c].t2;
             const glm::uvec3 t1 = tris[u.i1], t2 = tris[u.i2];
             if (!(t2.y == t1.z && t2.z == t1.y)) continue;
             u.tri = {t1, t2, glm::uvec3(t1.x, t1.y, t2.x), glm::uvec3(t1.x, t2.x, t1.z)};
@@ -218,54 +245,57 @@ std::size_t flipCreases(const std::vector<glm::vec3>& P, std::vector<glm::uvec3>
     });
     std::vector<char> flipped(tris.size(), 0);
     std::size_t flips = 0;
+    // Apex-to-apex edges, which only flips make (a fan's edges join its apex to its loop, or two loop
+    // vertices), and the flipped triangles that reach into a cell beside its own fan.
+    std::unordered_set<std::uint64_t> apexEdges;
+    std::unordered_map<std::size_t, std::vector<std::size_t>> reaching;
     for (std::size_t c = 0; c < candidates.size(); ++c) {
         const Turn& u = turns[c];
         const std::size_t i1 = u.i1, i2 = u.i2;
         if (!u.ok || flipped[i1] || flipped[i2] || !(u.after < u.before - 1e-4)) continue;
-        const std::uint64_t key = candidates[c];
         const glm::uvec3 &n1 = u.tri[2], &n2 = u.tri[3];
-        const unsigned c1 = n1.x, a = n1.y, c2 = n1.z, b = n2.z;
-        if (edgeTris.count(edgeKey(c1, c2))) continue;
+        const unsigned c1 = n1.x, c2 = n1.z;
+        if (apexEdges.count(edgeKey(c1, c2))) continue;  // the mesh would stop being manifold
         // Exact tests against everything in the two cells (and earlier flips into them).
-        bool clash = false;
         auto against = [&](const glm::uvec3& nt) {
             const std::array<glm::vec3, 3> pn{P[nt.x], P[nt.y], P[nt.z]};
+            auto crosses = [&](std::size_t o) {
+                if (o == i1 || o == i2) return false;
+                const glm::uvec3& ot = tris[o];
+                return mesh::trianglesIntersect(pn, {nt.x, nt.y, nt.z}, {P[ot.x], P[ot.y], P[ot.z]},
+                                                {ot.x, ot.y, ot.z});
+            };
             for (std::int64_t cell : {cellOf[i1], cellOf[i2]}) {
                 if (cell < 0) return true;
-                for (std::size_t o : inCell[std::size_t(cell)]) {
-                    if (o == i1 || o == i2) continue;
-                    const glm::uvec3& ot = tris[o];
-                    if (mesh::trianglesIntersect(pn, {nt.x, nt.y, nt.z}, {P[ot.x], P[ot.y], P[ot.z]},
-                                                 {ot.x, ot.y, ot.z}))
-                        return true;
-                }
+                const std::size_t ce = std::size_t(cell);
+                for (std::size_t k = cellStart[ce]; k < cellStart[ce + 1]; ++k)
+                    if (crosses(cellFans[k])) return true;
+                const auto more = reaching.find(ce);
+                if (more != reaching.end())
+                    for (std::size_t o : more->second)
+                        if (crosses(o)) return true;
             }
             return false;
         };
-        clash = against(n1) || against(n2) ||
-                mesh::trianglesIntersect({P[n1.x], P[n1.y], P[n1.z]}, {n1.x, n1.y, n1.z}, {P[n2.x], P[n2.y], P[n2.z]},
-                                         {n2.x, n2.y, n2.z});
+        const bool clash = against(n1) || against(n2) ||
+                           mesh::trianglesIntersect({P[n1.x], P[n1.y], P[n1.z]}, {n1.x, n1.y, n1.z},
+                                                    {P[n2.x], P[n2.y], P[n2.z]}, {n2.x, n2.y, n2.z});
         if (clash) continue;
         tris[i1] = n1;
         tris[i2] = n2;
         flipped[i1] = flipped[i2] = 1;
         ++flips;
-        // Edges: a-b is gone, c1-c2 is new; c1-a... keep their triangles up to date.
-        edgeTris.erase(key);
-        edgeTris[edgeKey(c1, c2)] = {std::int64_t(i1), std::int64_t(i2)};
-        auto swapIn = [&](unsigned p, unsigned q, std::size_t from, std::size_t to) {
-            auto& e = edgeTris[edgeKey(p, q)];
-            for (auto& x : e)
-                if (x == std::int64_t(from)) x = std::int64_t(to);
-        };
-        // n1 = (c1, a, c2) holds c1-a (was t1's) and a-c2 (was t2's); n2 = (c1, c2, b) holds c2-b (t2's), b-c1 (t1's).
-        swapIn(a, c2, i2, i1);
-        swapIn(b, c1, i1, i2);
+        apexEdges.insert(edgeKey(c1, c2));
         // Each new triangle now reaches into both cells.
         for (std::int64_t cell : {cellOf[i1], cellOf[i2]}) {
-            auto& v = inCell[std::size_t(cell)];
-            for (std::size_t t : {i1, i2})
+            const std::size_t ce = std::size_t(cell);
+            const auto own = cellFans.begin() + std::ptrdiff_t(cellStart[ce]),
+                       ownEnd = cellFans.begin() + std::ptrdiff_t(cellStart[ce + 1]);
+            for (std::size_t t : {i1, i2}) {
+                if (std::find(own, ownEnd, t) != ownEnd) continue;
+                std::vector<std::size_t>& v = reaching[ce];
                 if (std::find(v.begin(), v.end(), t) == v.end()) v.push_back(t);
+            }
         }
     }
     return flips;
@@ -402,23 +432,32 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
         return (std::uint64_t(block.x) << 45) | (std::uint64_t(block.y) << 27) | (std::uint64_t(block.z) << 9) |
                (in.x << 6) | (in.y << 3) | in.z;
     };
-    std::vector<std::pair<std::uint64_t, std::size_t>> owned;  // (cell, triangle)
-    owned.reserve(mesh.triangles.size());
-    std::vector<std::uint64_t> ambiguous;
-    for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    // A triangle's cells: those around all three of its vertices' edges (none, one, or more when
+    // ambiguous), found in parallel; then gathered in mesh order.
+    const std::size_t nt = mesh.triangles.size();
+    std::vector<std::array<std::uint64_t, 4>> common(nt);
+    std::vector<std::uint8_t> commonCount(nt);
+    tbb::parallel_for(std::size_t{0}, nt, [&](std::size_t t) {
         std::array<std::array<glm::ivec3, 4>, 3> c;
         for (int k = 0; k < 3; ++k) cellsOf(mesh.triangles[t][k], c[k]);
-        std::array<glm::ivec3, 4> common;
-        std::size_t n = 0;
+        std::uint8_t n = 0;
         for (const auto& a : c[0])
             if (std::find(c[1].begin(), c[1].end(), a) != c[1].end() &&
                 std::find(c[2].begin(), c[2].end(), a) != c[2].end())
-                common[n++] = a;
+                common[t][n++] = key(a);
+        commonCount[t] = n;
+    });
+    std::vector<std::pair<std::uint64_t, std::size_t>> owned;  // (cell, triangle)
+    owned.reserve(nt);
+    std::vector<std::uint64_t> ambiguous;
+    for (std::size_t t = 0; t < nt; ++t) {
+        const std::size_t n = commonCount[t];
         if (n == 0) continue;  // not a marching cubes triangle: left alone
-        owned.emplace_back(key(common[0]), t);
-        for (std::size_t k = 1; k < n; ++k) ambiguous.push_back(key(common[k]));
-        if (n > 1) ambiguous.push_back(key(common[0]));
+        owned.emplace_back(common[t][0], t);
+        for (std::size_t k = 1; k < n; ++k) ambiguous.push_back(common[t][k]);
+        if (n > 1) ambiguous.push_back(common[t][0]);
     }
+    std::vector<std::array<std::uint64_t, 4>>().swap(common);
     std::sort(ambiguous.begin(), ambiguous.end());
     // Cells in key order (a deterministic walk), each with its triangles in mesh order.
     tbb::parallel_sort(owned.begin(), owned.end());
@@ -438,13 +477,16 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
     };
 
     // 3. Per cell: one patch, its boundary loop, the QEF's point, the checks.
-    std::vector<Patch> patches(cellCount);
+    // A sharpened patch's loop: as many vertices as its triangles and two more (a disk), kept in one
+    // array at the cell's triangles' offset plus two per cell before it.
+    std::vector<unsigned> loops(owned.size() + 2 * cellCount);
+    auto loopOf = [&](std::size_t ci) {
+        return std::span<const unsigned>(loops.data() + cellStart[ci] + 2 * ci, trianglesOf(ci).size() + 2);
+    };
     std::vector<glm::vec3> apex(cellCount);
     std::vector<char> result(cellCount, 0);  // 1 feature vertex, 2 flat, 3 kept, 4 several patches
     tbb::parallel_for(std::size_t{0}, cellCount, [&](std::size_t ci) {
         const std::span<const std::size_t> tris = trianglesOf(ci);
-        // Marching cubes makes at most 5 triangles in a cell.
-        constexpr std::size_t kMaxTriangles = 8;
         if (tris.size() > kMaxTriangles || std::binary_search(ambiguous.begin(), ambiguous.end(), cellKey[ci])) {
             result[ci] = 4;
             return;
@@ -474,7 +516,8 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
             return;
         }
         std::sort(next.begin(), next.begin() + std::ptrdiff_t(nn));  // the loop starts at its lowest vertex
-        std::vector<unsigned> loop{next[0].first};
+        Loop loop;
+        loop.push_back(next[0].first);
         while (loop.size() <= nn) {
             const auto it = std::find_if(next.begin(), next.begin() + std::ptrdiff_t(nn),
                                          [&](const DirectedEdge& e) { return e.first == loop.back(); });
@@ -613,8 +656,7 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
             result[ci] = 3;
             return;
         }
-        patches[ci].triangles.assign(tris.begin(), tris.end());
-        patches[ci].loop = std::move(loop);
+        std::copy(loop.begin(), loop.end(), loops.begin() + std::ptrdiff_t(cellStart[ci] + 2 * ci));
         apex[ci] = glm::vec3(c);
         result[ci] = 1;
     });
@@ -628,7 +670,7 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
         stats.kept += result[ci] == 3;
         stats.sharedCells += result[ci] == 4;
         if (result[ci] == 1)
-            for (std::size_t t : patches[ci].triangles) patchOfTriangle[t] = std::int64_t(ci);
+            for (std::size_t t : trianglesOf(ci)) patchOfTriangle[t] = std::int64_t(ci);
     }
     std::vector<glm::uvec3> out;
     std::vector<std::int64_t> cellOfOut;  // each output triangle's cell (its index), -1 if none
@@ -636,8 +678,9 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
     for (std::size_t ci = 0; ci < cellCount; ++ci)
         for (std::size_t t : trianglesOf(ci)) cellOfTriangle[t] = std::int64_t(ci);
     out.reserve(mesh.triangles.size() + 2 * stats.features);
+    cellOfOut.reserve(out.capacity());
+    P.reserve(P.size() + stats.features);
     const auto firstApex = static_cast<unsigned>(P.size());
-    std::vector<std::int64_t> apexCell;
     std::vector<char> emitted(cellCount, 0);
     const bool normals = mesh.normals.size() == nv, colors = mesh.colors.size() == nv;
     for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
@@ -651,8 +694,7 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
         emitted[ci] = 1;
         const auto centre = static_cast<unsigned>(P.size());
         P.push_back(apex[ci]);
-        apexCell.push_back(ci);
-        const auto& loop = patches[ci].loop;
+        const std::span<const unsigned> loop = loopOf(std::size_t(ci));
         if (normals) {
             glm::vec3 n(0.f);
             for (unsigned v : loop) n += mesh.normals[v];
