@@ -18,6 +18,11 @@ struct BoxTerm {
     std::vector<glm::vec3> shifts;  ///< local point = ((p + shifts[0]) + shifts[1]) + ..., outermost first
 };
 
+/// The most translations a box of a union may sit under. A chain of translations is applied once per
+/// level in a tree but once per box in a union, so a box nested deeper (a recursive module's chain of
+/// translate-and-union, thousands deep) stays in the tree instead of costing depth times boxes per point.
+inline constexpr std::size_t kMaxBoxShifts = 8;
+
 /// min over the boxes, with the same bits as the tree it replaces (a union of the terms' fields in
 /// order): the same float operations per box, and the first of equals decides the gradient.
 /// @pre at least two terms.

@@ -371,7 +371,8 @@ public:
     }
     bool cheapGradient() const override { return child_->cheapGradient(); }
     bool valueFirst() const override { return child_->valueFirst(); }
-    /// A translation of boxes: each of them with this shift first (the same local points, bit for bit).
+    /// A translation of boxes: each of them with this shift first (the same local points, bit for bit),
+    /// unless one would then sit under more than kMaxBoxShifts translations.
     bool asBoxes(const FieldPtr&, std::vector<BoxTerm>& out) const override {
         if (!translation_ || scale_ != 1.f) return false;
         const std::size_t first = out.size();
@@ -379,6 +380,11 @@ public:
             out.resize(first);
             return false;
         }
+        for (std::size_t i = first; i < out.size(); ++i)
+            if (out[i].shifts.size() >= kMaxBoxShifts) {
+                out.resize(first);
+                return false;
+            }
         for (std::size_t i = first; i < out.size(); ++i) {
             out[i].field = std::make_shared<Transformed>(out[i].field, *this);
             out[i].shifts.insert(out[i].shifts.begin(), shift_);

@@ -160,6 +160,31 @@ TEST(BoxUnion, OnlyRunsOfBoxesAreGrouped) {
     EXPECT_EQ(r->describe(), "union(2 children)");
 }
 
+TEST(BoxUnion, ADeepChainOfTranslationsStaysATree) {
+    // A recursive module's chain, translate(union(cube, translate(union(cube, ...)))), 300 deep: the boxes
+    // under at most kMaxBoxShifts translations are grouped, the rest stays a tree (a union would apply the
+    // whole chain once per box and point); the values and gradients are the same bits either way.
+    const FieldPtr box = implicit::makeBox(glm::vec3(0.6f, 0.5f, 0.4f));
+    const glm::vec3 step(0.37f, 0.11f, -0.05f);
+    FieldPtr chain = box;
+    std::vector<FieldPtr> boxes{box};  // box k under k translations, each its own field
+    for (int k = 1; k < 300; ++k) {
+        chain = csg::makeUnion({box, implicit::makeTranslated(chain, step)});
+        boxes.push_back(implicit::makeTranslated(boxes.back(), step));
+    }
+    EXPECT_EQ(chain->describe(), "union(2 children)");
+    std::mt19937 rng(2);
+    std::uniform_real_distribution<float> u(-1.f, 1.f);
+    for (int i = 0; i < 300; ++i) {
+        const glm::vec3 p = glm::vec3(0.37f, 0.11f, -0.05f) * float(i) + 0.5f * glm::vec3(u(rng), u(rng), u(rng));
+        // Box k is the chain's k-th in its order too (the outermost first): the first of equals decides.
+        glm::vec3 g, gRef;
+        const float v = chain->valueAndGradient(p, g), vRef = reference(boxes, p, gRef);
+        ASSERT_EQ(bits(v), bits(vRef)) << i;
+        for (int k = 0; k < 3; ++k) ASSERT_EQ(bits(g[k]), bits(gRef[k])) << i;
+    }
+}
+
 TEST(BoxUnion, ABoxBoundIsItsExactRange) {
     // The lowest value over a region is the value at the region's point nearest the centre on every
     // axis, the highest at its farthest corner; no point of the region gives less or more.
