@@ -35,16 +35,16 @@ public:
     }
 
     float value(const glm::vec3& p) const override {
-        Scratch<float> d(terms_.size());
-        distances(p, d.span().data());
+        Scratch<float> scratch(4 * terms_.size());
+        const float* d = distances(p, scratch.span().data());
         float v = d[0];
         for (std::size_t i = 1; i < terms_.size(); ++i) v = std::min(v, d[i]);
         return v;
     }
     void values(std::span<const glm::vec3> p, std::span<float> out) const override {
-        Scratch<float> d(terms_.size());
+        Scratch<float> scratch(4 * terms_.size());
         for (std::size_t k = 0; k < p.size(); ++k) {
-            distances(p[k], d.span().data());
+            const float* d = distances(p[k], scratch.span().data());
             float v = d[0];
             for (std::size_t i = 1; i < terms_.size(); ++i) v = std::min(v, d[i]);
             out[k] = v;
@@ -91,12 +91,14 @@ public:
     }
     /// The first box of the smallest value decides (as in a tree of unions), and gives its gradient.
     float valueAndGradient(const glm::vec3& p, glm::vec3& g) const override {
-        Scratch<float> d(terms_.size());
-        distances(p, d.span().data());
+        Scratch<float> scratch(4 * terms_.size());
+        const float* d = distances(p, scratch.span().data());
         std::size_t win = 0;
         for (std::size_t i = 1; i < terms_.size(); ++i)
             if (d[i] < d[win]) win = i;
-        boxValueAndGradient(local(p, win), terms_[win].half, terms_[win].rounding, g);
+        const float* x = d + terms_.size();  // the boxes' local points, as distances() left them
+        const glm::vec3 q(x[win], x[terms_.size() + win], x[2 * terms_.size() + win]);
+        boxValueAndGradient(q, terms_[win].half, terms_[win].rounding, g);
         return d[win];
     }
     bool cheapGradient() const override { return true; }
@@ -106,20 +108,11 @@ public:
     }
 
 private:
-    /// Box i's local point: p through its translations in order.
-    glm::vec3 local(const glm::vec3& p, std::size_t i) const {
+    /// Each box's value at p (boxDistance - rounding), in the first n floats of `scratch` (4n floats:
+    /// the other 3n hold the boxes' local coordinates); returns them.
+    const float* distances(const glm::vec3& p, float* scratch) const {
         const std::size_t n = terms_.size();
-        glm::vec3 q = p;
-        for (std::size_t l = 0; l < depth_; ++l)
-            for (int k = 0; k < 3; ++k) q[k] += shift_[(3 * l + std::size_t(k)) * n + i];
-        return q;
-    }
-    /// Each box's value at p (boxDistance - rounding), into d[0, n).
-    void distances(const glm::vec3& p, float* d) const {
-        const std::size_t n = terms_.size();
-        Scratch<float> xs(3 * n);
-        float* x = xs.span().data();
-        float *y = x + n, *z = y + n;
+        float *d = scratch, *x = d + n, *y = x + n, *z = y + n;
         std::fill(x, x + n, p.x);
         std::fill(y, y + n, p.y);
         std::fill(z, z + n, p.z);
@@ -133,6 +126,7 @@ private:
         }
         const float *hx = half_.data(), *hy = hx + n, *hz = hy + n, *r = rounding_.data();
         for (std::size_t i = 0; i < n; ++i) d[i] = boxDistance(x[i], y[i], z[i], hx[i], hy[i], hz[i]) - r[i];
+        return d;
     }
 
     std::vector<BoxTerm> terms_;

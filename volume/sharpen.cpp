@@ -175,7 +175,6 @@ std::size_t flipCreases(const std::vector<glm::vec3>& P, std::vector<glm::uvec3>
     // Candidates, in key order: an edge between two fan triangles (the first and the last of its
     // triangles) whose apexes are the feature vertices of two cells.
     struct Candidate {
-        std::uint64_t key;
         std::size_t t1, t2;
     };
     std::vector<Candidate> candidates;
@@ -186,7 +185,7 @@ std::size_t flipCreases(const std::vector<glm::vec3>& P, std::vector<glm::uvec3>
         const std::size_t t1 = edgeTris[i].second, t2 = edgeTris[j - 1].second;
         if (j - i >= 2 && tris[t1].x != tris[t2].x && !isApex(unsigned(key >> 32)) &&
             !isApex(unsigned(key & 0xffffffffu)))
-            candidates.push_back({key, t1, t2});
+            candidates.push_back({t1, t2});
         i = j;
     }
     auto unit = [](const glm::dvec3& v) {
