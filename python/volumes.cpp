@@ -47,6 +47,25 @@ Voxels voxelsOf(const py::object& input) {
     return v;
 }
 
+/// A vector of floats handed to numpy as a 1D array without a copy.
+py::array_t<float> adopt(std::vector<float>&& values) {
+    auto* owner = new std::vector<float>(std::move(values));
+    const py::capsule keep(owner, [](void* p) { delete static_cast<std::vector<float>*>(p); });
+    return py::array_t<float>(py::ssize_t(owner->size()), owner->data(), keep);
+}
+
+/// A vector of glm 3-vectors handed to numpy as an (N, 3) array of `Scalar` without a copy: numpy's
+/// array keeps the vector alive and frees it.
+template <class Scalar, class Vec>
+py::array_t<Scalar> adoptRows(std::vector<Vec>&& rows) {
+    static_assert(sizeof(Vec) == 3 * sizeof(Scalar), "three packed components");
+    auto* owner = new std::vector<Vec>(std::move(rows));
+    const py::capsule keep(owner, [](void* p) { delete static_cast<std::vector<Vec>*>(p); });
+    const auto n = py::ssize_t(owner->size());
+    return py::array_t<Scalar>({n, py::ssize_t(3)}, {py::ssize_t(sizeof(Vec)), py::ssize_t(sizeof(Scalar))},
+                               reinterpret_cast<const Scalar*>(owner->data()), keep);
+}
+
 }  // namespace
 
 void bindVolumes(py::module_& m) {
@@ -107,6 +126,7 @@ void bindVolumes(py::module_& m) {
             // background (outside the array) is on the outside side, so surfaces close at the borders.
             const bool above = gradientDirection == "descent";
             mesh::TriMesh t;
+            std::vector<float> values;
             {
                 py::gil_scoped_release release;
                 // Only the blocks near the level are copied: the work grows with the surface.
@@ -120,47 +140,31 @@ void bindVolumes(py::module_& m) {
                 mo.isovalue = level;
                 mo.inside = above ? volume::InsideSide::Above : volume::InsideSide::Below;
                 mo.normals = true;
+                mo.edgeValues = &values;  // skimage's `values`: the larger datum at the ends of each vertex's edge
                 t = volume::extractIsosurface(*grid, mo);
-            }
-            const auto nv = py::ssize_t(t.vertexCount()), nt = py::ssize_t(t.triangleCount());
-            py::array_t<float> verts({nv, py::ssize_t(3)}), normals({nv, py::ssize_t(3)}), values(nv);
-            py::array_t<std::int32_t> faces({nt, py::ssize_t(3)});
-            float* vp = verts.mutable_data();
-            float* np = normals.mutable_data();
-            float* val = values.mutable_data();
-            std::int32_t* fp = faces.mutable_data();
-            const auto& d = vox.dims;
-            const float background = above ? range.first : range.second;
-            auto at = [&](std::int64_t i, std::int64_t j, std::int64_t k) {
-                if (i < 0 || j < 0 || k < 0 || i >= d[0] || j >= d[1] || k >= d[2]) return background;
-                return data[std::size_t((k * d[1] + j) * d[0] + i)];
-            };
-            py::gil_scoped_release release;
-            tbb::parallel_for(py::ssize_t{0}, nv, [&](py::ssize_t v) {
-                const glm::vec3& p = t.positions[std::size_t(v)];
-                const glm::vec3& n = t.normals[std::size_t(v)];
-                for (int a = 0; a < 3; ++a) {
-                    const int from = vox.fortran ? a : 2 - a;  // array axis a is view axis `from`
-                    vp[3 * v + a] = p[from];
-                    np[3 * v + a] = n[from];
+                if (t.vertexCount() > std::size_t(std::numeric_limits<std::int32_t>::max())) {
+                    py::gil_scoped_acquire gil;
+                    throw py::value_error("the surface has " + std::to_string(t.vertexCount()) +
+                                          " vertices, more than int32 faces can index");
                 }
-                // skimage's `values`: the largest datum near the vertex, here the two ends of its grid edge.
-                glm::dvec3 idx;
-                for (int a = 0; a < 3; ++a) idx[a] = double(p[a]) / view.indexToWorld[a][a];
-                const glm::dvec3 f = glm::floor(idx), c = glm::ceil(idx);
-                val[v] = std::max(at(std::int64_t(f.x), std::int64_t(f.y), std::int64_t(f.z)),
-                                  at(std::int64_t(c.x), std::int64_t(c.y), std::int64_t(c.z)));
-            });
-            // Reversing the axes (C order) mirrors the mesh: swap two corners to keep it counter-clockwise
-            // seen from outside.
-            tbb::parallel_for(py::ssize_t{0}, nt, [&](py::ssize_t i) {
-                const glm::uvec3& tri = t.triangles[std::size_t(i)];
-                fp[3 * i] = std::int32_t(tri.x);
-                fp[3 * i + 1] = std::int32_t(vox.fortran ? tri.y : tri.z);
-                fp[3 * i + 2] = std::int32_t(vox.fortran ? tri.z : tri.y);
-            });
-            py::gil_scoped_acquire gil;
-            return py::make_tuple(verts, faces, normals, values);
+                // For a C-ordered array, array axis a is view axis 2 - a: the positions and normals are
+                // reversed in place, and the mesh so mirrored keeps counter-clockwise seen from outside by
+                // swapping two corners of each triangle.
+                if (!vox.fortran)
+                    tbb::parallel_for(std::size_t{0}, t.vertexCount(), [&](std::size_t v) {
+                        std::swap(t.positions[v].x, t.positions[v].z);
+                        std::swap(t.normals[v].x, t.normals[v].z);
+                    });
+                if (!vox.fortran)
+                    tbb::parallel_for(std::size_t{0}, t.triangles.size(),
+                                      [&](std::size_t i) { std::swap(t.triangles[i].y, t.triangles[i].z); });
+            }
+            // The mesh's own arrays become numpy's (no copy): glm's vectors are three packed 32-bit values,
+            // and the indices fit int32 (checked above).
+            py::array_t<float> verts = adoptRows<float>(std::move(t.positions));
+            py::array_t<float> normals = adoptRows<float>(std::move(t.normals));
+            py::array_t<std::int32_t> faces = adoptRows<std::int32_t>(std::move(t.triangles));
+            return py::make_tuple(verts, faces, normals, adopt(std::move(values)));
         },
         py::arg("volume"), py::arg("level") = py::none(), py::kw_only(), py::arg("spacing") = py::make_tuple(1, 1, 1),
         py::arg("gradient_direction") = "descent", py::arg("step_size") = 1, py::arg("allow_degenerate") = true,

@@ -89,10 +89,13 @@ TEST(NearLevel, AStreamedGridIsTheGridOfTheVolumeInMemory) {
                 expectSameBlocks(*inMemory, *streamed.grid, -1 << 30, 1 << 30);
                 EXPECT_EQ(streamed.grid->background(), range.first);  // toGrid's, either side
             }
-            const std::uint64_t rows = std::uint64_t(v.dims[1] * ((v.dims[0] + 7) / 8) * 8);
-            EXPECT_EQ(whole.windowBytes,
-                      13 * (std::uint64_t(v.dims[0] * v.dims[1]) * 4 + rows) +
-                          std::uint64_t(v.dims[0] * v.dims[1]) * volume::detail::typeSize(source->header.storedType));
+            // Thirteen slices, the one being read, a layer of cell columns and a ring of eight layers of cells
+            // (cells of four voxels: 2 * blocks + 1 along an axis; a range is 8 bytes).
+            const auto nx = std::uint64_t(v.dims[0]), ny = std::uint64_t(v.dims[1]);
+            const std::uint64_t cx = 2 * ((nx + 7) / 8) + 1, cy = 2 * ((ny + 7) / 8) + 1;
+            EXPECT_EQ(whole.windowBytes, 13 * nx * ny * 4 +
+                                             nx * ny * volume::detail::typeSize(source->header.storedType) +
+                                             cy * nx * 8 + 8 * cy * cx * 8);
             if (v.dims[0] > 256) {
                 o.xBegin = 120;
                 o.xEnd = 272;
@@ -213,8 +216,9 @@ TEST(SlabsOfVolumes, AFileStreamedInPassesIsTheWholeGridsMesh) {
                     EXPECT_LE(ss.gridBytes, budget);
                     EXPECT_LT(budget, oneGrid);
                 }
-                // Thirteen slices (twelve, and the next one read meanwhile), not the volume.
-                EXPECT_EQ(ss.windowBytes, std::uint64_t(500) * 470 * (13 * 4 + 1) + 13 * std::uint64_t(470) * 63 * 8);
+                // Thirteen slices (twelve, and the next one read meanwhile) and the cells, not the volume.
+                EXPECT_EQ(ss.windowBytes,
+                          std::uint64_t(500) * 470 * (13 * 4 + 1) + std::uint64_t(119) * 500 * 8 + 8 * 119 * 127 * 8);
                 EXPECT_TRUE(pieces.positions == expected.positions);
                 EXPECT_TRUE(pieces.normals == expected.normals);
                 EXPECT_TRUE(pieces.triangles == expected.triangles);

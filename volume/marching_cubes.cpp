@@ -25,6 +25,7 @@
 #include <tbb/parallel_sort.h>
 #include <glm/geometric.hpp>
 
+#include "core/big_buffer.h"
 #include "core/error.h"
 #include "volume/mc_table.h"
 
@@ -282,20 +283,48 @@ struct AffineToWorld {
     }
 };
 
-/// Unit normal at index-space point p on edge (c0, axis) at parameter t: the grid gradient by central
-/// differences at both ends, interpolated, mapped to world space, pointing out of the solid.
+/// The values around a block, for gradients: the 27 regions of 8^3 at offsets -8, 0 and 8 along each axis
+/// (a leaf's buffer, or the constant of a tile or the background), so that the twelve values of a
+/// vertex's two central differences are array loads, not twelve walks down the tree. The same values as
+/// the accessor's: a region that is not a leaf is one value.
+struct Around {
+    const float* data[27];
+    float constant[27];
+
+    void load(const Accessor& acc, const Coord& origin) {
+        for (int i = 0; i < 27; ++i) {
+            const Coord p = origin.offsetBy(8 * (i % 3 - 1), 8 * (i / 3 % 3 - 1), 8 * (i / 9 - 1));
+            if (const Leaf* leaf = acc.probeConstLeaf(p)) {
+                data[i] = leaf->buffer().data();
+            } else {
+                data[i] = nullptr;
+                constant[i] = acc.getValue(p);
+            }
+        }
+    }
+    /// Value at block-local (x, y, z), each in [-8, 16).
+    float value(int x, int y, int z) const {
+        const int i = ((x + 8) >> 3) + 3 * ((y + 8) >> 3) + 9 * ((z + 8) >> 3);
+        return data[i] ? data[i][((x & 7) << 6) | ((y & 7) << 3) | (z & 7)] : constant[i];
+    }
+};
+
+/// Unit normal at index-space point p on the edge from block-local corner c0 along `axis`, at parameter
+/// t: the grid gradient by central differences at both ends, interpolated, mapped to world space,
+/// pointing out of the solid.
 template <bool Below>
-glm::vec3 normalAt(const Accessor& acc, const openvdb::math::Transform& xform, bool world, const Coord& c0, int axis,
+glm::vec3 normalAt(const Around& around, const openvdb::math::MapBase& map, bool world, const Coord& c0, int axis,
                    float t, const openvdb::Vec3d& p) {
     auto gradient = [&](const Coord& c) {
-        return openvdb::Vec3d(acc.getValue(c.offsetBy(1, 0, 0)) - acc.getValue(c.offsetBy(-1, 0, 0)),
-                              acc.getValue(c.offsetBy(0, 1, 0)) - acc.getValue(c.offsetBy(0, -1, 0)),
-                              acc.getValue(c.offsetBy(0, 0, 1)) - acc.getValue(c.offsetBy(0, 0, -1)));
+        const int x = c.x(), y = c.y(), z = c.z();
+        return openvdb::Vec3d(around.value(x + 1, y, z) - around.value(x - 1, y, z),
+                              around.value(x, y + 1, z) - around.value(x, y - 1, z),
+                              around.value(x, y, z + 1) - around.value(x, y, z - 1));
     };
     Coord c1 = c0;
     c1[axis] += 1;
     openvdb::Vec3d g = gradient(c0) * (1.0 - t) + gradient(c1) * t;
-    if (world) g = xform.baseMap()->applyIJT(g, p);
+    if (world) g = map.applyIJT(g, p);
     if (!Below) g = -g;
     const double len = g.length();
     return len > 0 ? glm::vec3(g.x() / len, g.y() / len, g.z() / len) : glm::vec3(0.f);
@@ -577,22 +606,30 @@ std::size_t extract(const openvdb::FloatGrid& grid, const MeshingOptions& option
 
         // Pass 2: vertices and triangles, each block at its own offsets.
         t0 = Clock::now();
-        out.positions.resize(vertexOffset[ghostEnd] - vfirst);
-        out.triangles.resize(triangleOffset[last] - triangleOffset[first]);
+        // On huge pages: the resizes touch every page first, on one thread. With 4 KB pages, their
+        // faults and zeroing were a fifth of the samples of a dense surface's whole call (perf, a
+        // gyroid in 512^3 from Python: 280 MB of mesh).
+        resizeLarge(out.positions, vertexOffset[ghostEnd] - vfirst);
+        resizeLarge(out.triangles, triangleOffset[last] - triangleOffset[first]);
         if (options.normals)
-            out.normals.resize(out.positions.size());
+            resizeLarge(out.normals, out.positions.size());
         else
             out.normals.clear();
+        if (options.edgeValues) resizeLarge(*options.edgeValues, out.positions.size());
 
         const openvdb::math::Transform& xform = grid.transform();
         const bool affine = xform.isLinear();
         const AffineToWorld toWorld(affine ? xform.baseMap()->getAffineMap()->getMat4() : openvdb::Mat4d::identity());
+        // Held once: Transform::baseMap() returns a shared pointer, whose count both threads would
+        // otherwise bump for every vertex (a cache line bouncing between cores).
+        const openvdb::math::MapBase::ConstPtr map = xform.baseMap();
         std::atomic<std::size_t> surfaceBlocks{0};
 
         tbb::parallel_for(
             tbb::blocked_range<std::size_t>(first, ghostEnd, 64), [&](const tbb::blocked_range<std::size_t>& r) {
                 Accessor acc(tree);
                 Sources src;
+                Around around;
                 std::uint32_t slots[kSlots];  // only entries of cut edges are written and read
                 Masks masks;
                 std::size_t localSurface = 0;
@@ -605,6 +642,7 @@ std::size_t extract(const openvdb::FloatGrid& grid, const MeshingOptions& option
                     const Coord origin = packer.unpack(keys[bi]);
                     src.load(acc, origin);
                     computeMasks<Below>(src, iso, masks);
+                    if (options.normals && vertexOffset[bi + 1] != vbase) around.load(acc, origin);
 
                     // Vertices owned by this block, in rank order; their indices go to the slot table.
                     std::size_t vi = vbase - vfirst;
@@ -620,8 +658,9 @@ std::size_t extract(const openvdb::FloatGrid& grid, const MeshingOptions& option
                                 openvdb::Vec3d p(origin.x() + x, origin.y() + y, origin.z() + z);
                                 p[a] += t;
                                 if (options.normals)
-                                    out.normals[vi] = normalAt<Below>(acc, xform, options.worldSpace,
-                                                                      origin.offsetBy(x, y, z), a, t, p);
+                                    out.normals[vi] =
+                                        normalAt<Below>(around, *map, options.worldSpace, Coord(x, y, z), a, t, p);
+                                if (options.edgeValues) (*options.edgeValues)[vi] = std::max(v0, v1);
                                 if (options.worldSpace) p = affine ? toWorld.apply(p) : xform.indexToWorld(p);
                                 out.positions[vi] = glm::vec3(p.x(), p.y(), p.z());
                                 slots[a * 729 + x * 81 + y * 9 + z] =

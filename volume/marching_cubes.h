@@ -24,6 +24,9 @@ struct MeshingOptions {
     InsideSide inside = InsideSide::Auto;
     bool worldSpace = true;  ///< false: positions in index space (voxel units)
     bool normals = false;    ///< per-vertex normals from the grid gradient (central differences)
+    /// When set, receives per vertex (in vertex order) the larger of the grid's values at the two ends of
+    /// its edge: scikit-image's `values` (python/), read where the mesher has them.
+    std::vector<float>* edgeValues = nullptr;
     Progress* progress = nullptr;
 };
 

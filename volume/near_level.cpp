@@ -26,6 +26,9 @@ using Leaf = Tree::LeafNodeType;
 
 /// The slices a streamed pass holds: the twelve that a layer of blocks needs, and the next one read meanwhile.
 constexpr std::int64_t kRingSlices = 13;
+/// The layers of cells it holds (below): a layer of blocks needs three, and up to six are still needed
+/// when the last slice is in (the cells past the array's end).
+constexpr std::int64_t kCellRing = 8;
 
 /// A volume's voxels and its 8^3 blocks.
 struct Shape {
@@ -39,46 +42,102 @@ struct Shape {
 /// sees outside there, or inside where `exteriorInside`.
 enum : std::uint8_t { kOutside = 0, kInside = 1, kLeaf = 2 };
 
-/// The ranges of one slice's rows [j0, j1) over each block column I in [I0, I1), widened by two voxels
-/// each way, at rowLo[(j - j0) * stride + I - I0] (rowHi likewise); lo and hi take the values visited.
-void rowRanges(const Shape& s, const float* values, std::int64_t j0, std::int64_t j1, std::int64_t I0, std::int64_t I1,
-               std::int64_t stride, float* rowLo, float* rowHi, float& lo, float& hi) {
-    const float inf = std::numeric_limits<float>::infinity();
-    for (std::int64_t j = j0; j < j1; ++j) {
-        const float* p = values + std::size_t(j * s.nx);
-        float* l8 = rowLo + std::size_t((j - j0) * stride);
-        float* h8 = rowHi + std::size_t((j - j0) * stride);
-        for (std::int64_t I = I0; I < I1; ++I) {
-            float l = inf, h = -inf;
-            for (std::int64_t i = std::max<std::int64_t>(8 * I - 2, 0); i < std::min(8 * I + 10, s.nx); ++i) {
-                l = std::min(l, p[i]);  // branch-free: vectorized
-                h = std::max(h, p[i]);
-            }
-            l8[I - I0] = l;
-            h8[I - I0] = h;
-            lo = std::min(lo, l);
-            hi = std::max(hi, h);
-        }
-    }
+/// Block ranges from cells. A cell is four voxels a side, offset by two: along an axis of b blocks,
+/// cell c (0 .. 2b) covers voxels [4c - 2, 4c + 2) of the array. Block B's window, its voxels and
+/// the two beyond them each way, [8B - 2, 8B + 10), is exactly cells 2B, 2B + 1 and 2B + 2. So the
+/// voxels are each read once (into their cell) and a block takes the range of 27 cells; the reads
+/// go down columns (x fastest, one element-wise min and max per voxel), never across a row.
+constexpr std::int64_t cellOf(std::int64_t voxel) {
+    return (voxel + 2) / 4;
+}
+constexpr std::int64_t cellsOf(std::int64_t blocks) {
+    return 2 * blocks + 1;
 }
 
+/// A layer of cells in the making (one z cell, all its y cells, the x cells of block columns
+/// [I0, I1)): the ranges of each y cell's voxel columns, x from i0, as slices arrive.
+struct CellColumns {
+    std::int64_t i0 = 0, i1 = 0;  ///< the voxels of the block columns and their two each side
+    std::int64_t ncy = 0;
+    std::vector<float> lo, hi;  ///< [cy * (i1 - i0) + i - i0]
+
+    CellColumns(const Shape& s, std::int64_t I0, std::int64_t I1)
+        : i0(std::max<std::int64_t>(8 * I0 - 2, 0)),
+          i1(std::min(8 * I1 + 10, s.nx)),
+          ncy(cellsOf(s.by)),
+          lo(std::size_t(ncy * std::max<std::int64_t>(i1 - i0, 0))),
+          hi(lo.size()) {}
+
+    void reset() {
+        std::fill(lo.begin(), lo.end(), std::numeric_limits<float>::infinity());
+        std::fill(hi.begin(), hi.end(), -std::numeric_limits<float>::infinity());
+    }
+
+    /// Slice `values` (x fastest) folded in: y cells [cy0, cy1).
+    void fold(const Shape& s, const float* values, std::int64_t cy0, std::int64_t cy1) {
+        const std::int64_t w = i1 - i0;
+        for (std::int64_t cy = cy0; cy < cy1; ++cy) {
+            float* l = lo.data() + std::size_t(cy * w);
+            float* h = hi.data() + std::size_t(cy * w);
+            for (std::int64_t j = std::max<std::int64_t>(4 * cy - 2, 0); j < std::min(4 * cy + 2, s.ny); ++j) {
+                const float* p = values + std::size_t(j * s.nx + i0);
+                for (std::int64_t i = 0; i < w; ++i) {  // element-wise: vectorized
+                    l[i] = std::min(l[i], p[i]);
+                    h[i] = std::max(h[i], p[i]);
+                }
+            }
+        }
+    }
+};
+
+/// One z cell's ranges over the y cells and the x cells 2 * I0 .. 2 * I1 (ncx of them):
+/// lo[cy * ncx + cx - 2 * I0], hi likewise.
+struct CellLayer {
+    std::int64_t cx0 = 0, ncx = 0;
+    std::vector<float> lo, hi;
+
+    CellLayer(const Shape& s, std::int64_t I0, std::int64_t I1)
+        : cx0(2 * I0), ncx(I1 > I0 ? cellsOf(I1 - I0) : 0), lo(std::size_t(cellsOf(s.by) * ncx)), hi(lo.size()) {}
+
+    /// Cell rows [cy0, cy1) from their columns' ranges; rangeLo and rangeHi take the range of those cells.
+    void finish(const CellColumns& c, std::int64_t cy0, std::int64_t cy1, float& rangeLo, float& rangeHi) {
+        const float inf = std::numeric_limits<float>::infinity();
+        const std::int64_t w = c.i1 - c.i0;
+        for (std::int64_t cy = cy0; cy < cy1; ++cy) {
+            const float* l = c.lo.data() + std::size_t(cy * w);
+            const float* h = c.hi.data() + std::size_t(cy * w);
+            for (std::int64_t cx = cx0; cx < cx0 + ncx; ++cx) {
+                float a = inf, b = -inf;
+                for (std::int64_t i = std::max(4 * cx - 2, c.i0); i < std::min(4 * cx + 2, c.i1); ++i) {
+                    a = std::min(a, l[i - c.i0]);
+                    b = std::max(b, h[i - c.i0]);
+                }
+                lo[std::size_t(cy * ncx + cx - cx0)] = a;
+                hi[std::size_t(cy * ncx + cx - cx0)] = b;
+                rangeLo = std::min(rangeLo, a);
+                rangeHi = std::max(rangeHi, b);
+            }
+        }
+    }
+};
+
 /// The kinds of layer K's blocks in rows [J0, J1) and columns [I0, I1) (kind[(J - J0) * (I1 - I0) + I - I0]),
-/// from the row ranges of its slices and the two each side: rows(k, j) gives the lo and hi of slice k's
-/// row j at column I0 (rowRanges').
-template <class Rows>
+/// from its three layers of cells, z cells 2K, 2K + 1 and 2K + 2 (whose columns start at block I0).
 void blockKinds(const Shape& s, std::int64_t K, std::int64_t J0, std::int64_t J1, std::int64_t I0, std::int64_t I1,
-                const Rows& rows, float level, bool above, bool exteriorInside, std::uint8_t* kind) {
+                const std::array<const CellLayer*, 3>& cells, float level, bool above, bool exteriorInside,
+                std::uint8_t* kind) {
     const float inf = std::numeric_limits<float>::infinity();
-    const std::int64_t k0 = std::max<std::int64_t>(8 * K - 2, 0), k1 = std::min(8 * K + 10, s.nz);
     const std::int64_t ni = I1 - I0;
     for (std::int64_t J = J0; J < J1; ++J)
         for (std::int64_t I = I0; I < I1; ++I) {
             float l = inf, h = -inf;
-            for (std::int64_t k = k0; k < k1; ++k)
-                for (std::int64_t j = std::max<std::int64_t>(8 * J - 2, 0); j < std::min(8 * J + 10, s.ny); ++j) {
-                    const auto [rl, rh] = rows(k, j);
-                    l = std::min(l, rl[I - I0]);
-                    h = std::max(h, rh[I - I0]);
+            for (const CellLayer* c : cells)
+                for (std::int64_t cy = 2 * J; cy <= 2 * J + 2; ++cy) {
+                    const std::size_t at = std::size_t(cy * c->ncx + 2 * (I - I0));
+                    for (std::size_t cx = at; cx <= at + 2; ++cx) {
+                        l = std::min(l, c->lo[cx]);
+                        h = std::max(h, c->hi[cx]);
+                    }
                 }
             const bool past = 8 * I - 2 < 0 || 8 * J - 2 < 0 || 8 * K - 2 < 0 || 8 * I + 10 > s.nx ||
                               8 * J + 10 > s.ny || 8 * K + 10 > s.nz;
@@ -88,41 +147,16 @@ void blockKinds(const Shape& s, std::int64_t K, std::int64_t J0, std::int64_t J1
         }
 }
 
-/// blockKinds for a volume in memory: layer K's row ranges found first, in `buffer`. `slice(k)` gives
-/// slice k, x fastest; lo and hi take the range of the rows visited.
-template <class Slice>
-void classifyBlocks(const Shape& s, std::int64_t K, std::int64_t J0, std::int64_t J1, std::int64_t I0, std::int64_t I1,
-                    const Slice& slice, float level, bool above, bool exteriorInside, std::uint8_t* kind,
-                    std::vector<float>& buffer, float& lo, float& hi) {
-    const std::int64_t k0 = std::max<std::int64_t>(8 * K - 2, 0), k1 = std::min(8 * K + 10, s.nz);
-    const std::int64_t j0 = std::max<std::int64_t>(8 * J0 - 2, 0), j1 = std::min(8 * J1 + 10, s.ny);
-    const std::int64_t ni = I1 - I0, nj = j1 - j0;
-    const std::size_t rows = std::size_t((k1 - k0) * nj * ni);
-    buffer.resize(2 * rows);
-    float *rowLo = buffer.data(), *rowHi = buffer.data() + rows;
-    for (std::int64_t k = k0; k < k1; ++k) {
-        const std::size_t at = std::size_t((k - k0) * nj * ni);
-        rowRanges(s, slice(k), j0, j1, I0, I1, ni, rowLo + at, rowHi + at, lo, hi);
-    }
-    blockKinds(
-        s, K, J0, J1, I0, I1,
-        [&](std::int64_t k, std::int64_t j) {
-            const std::size_t at = std::size_t(((k - k0) * nj + j - j0) * ni);
-            return std::pair<const float*, const float*>(rowLo + at, rowHi + at);
-        },
-        level, above, exteriorInside, kind);
-}
-
-/// Layer K's tiles (the blocks of kind `tileKind`, the other side from the background) and leaves
-/// (columns [I0, I1), every row) added to the tree; the leaves, still empty, appended to `leaves`.
+/// Layer K's tiles (the blocks of kind `tileKind`, the other side from the background) added to the tree
+/// (columns [I0, I1), every row); the origins of its leaves appended to `leaves`.
 void addLayer(Tree& tree, std::int64_t K, std::int64_t by, std::int64_t I0, std::int64_t I1, const std::uint8_t* kind,
-              std::uint8_t tileKind, float tileValue, std::vector<Leaf*>& leaves) {
+              std::uint8_t tileKind, float tileValue, std::vector<openvdb::Coord>& leaves) {
     for (std::int64_t J = 0; J < by; ++J)
         for (std::int64_t I = I0; I < I1; ++I) {
             const std::uint8_t c = kind[std::size_t(J * (I1 - I0) + I - I0)];
             const openvdb::Coord o(int(8 * I), int(8 * J), int(8 * K));
             if (c == tileKind) tree.addTile(1, o, tileValue, true);
-            if (c == kLeaf) leaves.push_back(tree.touchLeaf(o));
+            if (c == kLeaf) leaves.push_back(o);
         }
 }
 
@@ -152,6 +186,25 @@ void fillLeaf(Leaf& leaf, const Shape& s, const Slice& slice, float outsideValue
                 else
                     leaf.setValueOff(offset, outsideValue);
             }
+}
+
+/// The leaves at `origins`, made and filled in parallel (each thread's allocations, and the first touch of
+/// their pages, apart: made one by one in the tree they were a third of a dense volume's time), then
+/// added to the tree. Their voxels past the array are inactive, `outsideValue`.
+template <class Slice>
+void addLeaves(Tree& tree, const std::vector<openvdb::Coord>& origins, const Shape& s, const Slice& slice,
+               float outsideValue) {
+    std::vector<Leaf*> made(origins.size(), nullptr);
+    try {
+        tbb::parallel_for(std::size_t{0}, origins.size(), [&](std::size_t n) {
+            made[n] = new Leaf(origins[n], outsideValue, false);  // as Tree::touchLeaf makes it in the background
+            fillLeaf(*made[n], s, slice, outsideValue);
+        });
+    } catch (...) {
+        for (Leaf* leaf : made) delete leaf;
+        throw;
+    }
+    for (Leaf* leaf : made) tree.addLeaf(leaf);  // the tree owns it
 }
 
 /// The grid's background, and which blocks become tiles of what: the outside extreme as background and
@@ -212,36 +265,47 @@ openvdb::FloatGrid::Ptr toGridNearLevel(const VolumeView& v, float level, bool i
         return openvdb::FloatGrid::create(0.f);
     }
     const auto slice = [&](std::int64_t k) { return v.values + std::size_t(k * s.ny * s.nx); };
-    // Per layer of blocks (parallel), in a buffer each thread reuses.
+    // The cells, a layer of them per task (each thread reusing its columns), then the blocks' kinds.
     const float inf = std::numeric_limits<float>::infinity();
+    const std::int64_t ncz = cellsOf(s.bz);
+    std::vector<CellLayer> cells(std::size_t(ncz), CellLayer(s, 0, s.bx));
+    std::vector<float> layerLo(std::size_t(ncz), inf), layerHi(std::size_t(ncz), -inf);
+    tbb::enumerable_thread_specific<CellColumns> columns([&] { return CellColumns(s, 0, s.bx); });
+    tbb::parallel_for(std::int64_t{0}, ncz, [&](std::int64_t cz) {
+        CellColumns& c = columns.local();
+        c.reset();
+        for (std::int64_t k = std::max<std::int64_t>(4 * cz - 2, 0); k < std::min(4 * cz + 2, s.nz); ++k)
+            c.fold(s, slice(k), 0, c.ncy);
+        cells[std::size_t(cz)].finish(c, 0, c.ncy, layerLo[std::size_t(cz)], layerHi[std::size_t(cz)]);
+    });
     std::vector<std::uint8_t> kind(std::size_t(s.bx * s.by * s.bz));
-    std::vector<float> layerLo(std::size_t(s.bz), inf), layerHi(std::size_t(s.bz), -inf);
-    tbb::enumerable_thread_specific<std::vector<float>> scratch;
     tbb::parallel_for(std::int64_t{0}, s.bz, [&](std::int64_t K) {
-        classifyBlocks(s, K, 0, s.by, 0, s.bx, slice, level, insideAbove, exteriorInside,
-                       kind.data() + std::size_t(K * s.by * s.bx), scratch.local(), layerLo[std::size_t(K)],
-                       layerHi[std::size_t(K)]);
+        const std::size_t z = std::size_t(2 * K);
+        blockKinds(s, K, 0, s.by, 0, s.bx, {&cells[z], &cells[z + 1], &cells[z + 2]}, level, insideAbove,
+                   exteriorInside, kind.data() + std::size_t(K * s.by * s.bx));
     });
     const float minimum = *std::min_element(layerLo.begin(), layerLo.end());
     const float maximum = *std::max_element(layerHi.begin(), layerHi.end());
     if (range) *range = {minimum, maximum};
     const Fill f = fillOf(insideAbove, exteriorInside, minimum, maximum);
     auto grid = emptyGrid(v.indexToWorld, v.format, insideAbove, f.background);
-    std::vector<Leaf*> leaves;
+    std::vector<openvdb::Coord> leaves;
     for (std::int64_t K = 0; K < s.bz; ++K)
         addLayer(grid->tree(), K, s.by, 0, s.bx, kind.data() + std::size_t(K * s.by * s.bx), f.tileKind, f.tileValue,
                  leaves);
-    tbb::parallel_for(std::size_t{0}, leaves.size(),
-                      [&](std::size_t n) { fillLeaf(*leaves[n], s, slice, f.background); });
+    addLeaves(grid->tree(), leaves, s, slice, f.background);
     return grid;
 }
 
 std::uint64_t nearLevelWindowBytes(const VoxelSource& source) {
     const auto& d = source.header.dims;
     const auto n = [](std::int64_t a) { return std::uint64_t(std::max<std::int64_t>(a, 0)); };
-    const std::uint64_t slice = n(d[0]) * n(d[1]), rows = n(d[1]) * ((n(d[0]) + 7) / 8) * 2 * sizeof(float);
-    return std::min<std::uint64_t>(kRingSlices, n(d[2])) * (slice * sizeof(float) + rows) +
-           slice * detail::typeSize(source.header.storedType);
+    const auto cells = [&](std::int64_t a) { return std::uint64_t(cellsOf(std::int64_t((n(a) + 7) / 8))); };
+    const std::uint64_t slice = n(d[0]) * n(d[1]), pair = 2 * sizeof(float);  // a range: lo and hi
+    return std::min<std::uint64_t>(kRingSlices, n(d[2])) * slice * sizeof(float) +
+           slice * detail::typeSize(source.header.storedType) +          // the slice being read
+           cells(d[1]) * n(d[0]) * pair +                                // a z cell's columns
+           std::uint64_t(kCellRing) * cells(d[1]) * cells(d[0]) * pair;  // the ring of cells
 }
 
 NearLevelGrid nearLevelGrid(const VoxelSource& source, const NearLevelOptions& o) {
@@ -272,38 +336,47 @@ NearLevelGrid nearLevelGrid(const VoxelSource& source, const NearLevelOptions& o
     std::vector<float> ring;
     resizeLarge(ring, std::size_t(kWindow * slice));
     const auto sliceAt = [&](std::int64_t k) { return ring.data() + std::size_t((k % kWindow) * slice); };
-    // Each slice's row ranges, found once as it arrives (a layer's blocks take those of twelve slices,
-    // each slice serving one or two layers): lo then hi, rows of `stride` block columns from I0.
-    const std::int64_t stride = std::max<std::int64_t>(I1 - I0, 1);
-    std::vector<float> rowRing(std::size_t(kWindow * 2 * s.ny * stride));
-    const auto rowsOf = [&](std::int64_t k) { return rowRing.data() + std::size_t((k % kWindow) * 2 * s.ny * stride); };
-    const auto rangeRows = [&](std::int64_t k) {
-        float* lo = rowsOf(k);
-        tbb::parallel_for(tbb::blocked_range<std::int64_t>(0, s.ny, 16),
-                          [&](const tbb::blocked_range<std::int64_t>& js) {
+    // Each slice folded into its z cell's columns as it arrives; a z cell's ranges found when its last
+    // slice is in, kept in a ring (block columns [I0, I1) as they were at the start: a pass that narrows
+    // its slab classifies fewer of them).
+    CellColumns columns(s, I0, I1);
+    columns.reset();
+    std::vector<CellLayer> cellRing(std::size_t(kCellRing), CellLayer(s, I0, I1));
+    const auto cellsAt = [&](std::int64_t cz) -> CellLayer& { return cellRing[std::size_t(cz % kCellRing)]; };
+    const auto foldSlice = [&](std::int64_t k) {
+        tbb::parallel_for(
+            tbb::blocked_range<std::int64_t>(0, columns.ncy, 4),
+            [&](const tbb::blocked_range<std::int64_t>& cy) { columns.fold(s, sliceAt(k), cy.begin(), cy.end()); });
+        if (k + 1 < s.nz && cellOf(k + 1) == cellOf(k)) return;
+        CellLayer& cells = cellsAt(cellOf(k));
+        tbb::parallel_for(tbb::blocked_range<std::int64_t>(0, columns.ncy, 4),
+                          [&](const tbb::blocked_range<std::int64_t>& cy) {
                               float l = 0, h = 0;  // the range comes from whole slices, below
-                              rowRanges(s, sliceAt(k), js.begin(), js.end(), I0, I1, stride, lo + js.begin() * stride,
-                                        lo + (s.ny + js.begin()) * stride, l, h);
+                              cells.finish(columns, cy.begin(), cy.end(), l, h);
                           });
+        columns.reset();
+        if (k + 1 == s.nz)  // the z cells past the array see none of it
+            for (std::int64_t cz = cellOf(k) + 1; cz < cellsOf(s.bz); ++cz) {
+                CellLayer& past = cellsAt(cz);
+                std::fill(past.lo.begin(), past.lo.end(), std::numeric_limits<float>::infinity());
+                std::fill(past.hi.begin(), past.hi.end(), -std::numeric_limits<float>::infinity());
+            }
     };
     std::vector<std::uint8_t> kind;
-    std::vector<Leaf*> leaves;
+    std::vector<openvdb::Coord> leaves;
     const auto buildLayer = [&](std::int64_t K) {
         const std::int64_t ni = I1 - I0;
         if (ni <= 0) return;
         kind.assign(std::size_t(s.by * ni), kOutside);
-        const auto rows = [&](std::int64_t k, std::int64_t j) {
-            const float* lo = rowsOf(k) + j * stride;
-            return std::pair<const float*, const float*>(lo, lo + s.ny * stride);
-        };
+        const std::array<const CellLayer*, 3> cells{&cellsAt(2 * K), &cellsAt(2 * K + 1), &cellsAt(2 * K + 2)};
         tbb::parallel_for(tbb::blocked_range<std::int64_t>(0, s.by, 4),
                           [&](const tbb::blocked_range<std::int64_t>& js) {
-                              blockKinds(s, K, js.begin(), js.end(), I0, I1, rows, o.level, above, exteriorInside,
+                              blockKinds(s, K, js.begin(), js.end(), I0, I1, cells, o.level, above, exteriorInside,
                                          kind.data() + std::size_t(js.begin() * ni));
                           });
         leaves.clear();
         addLayer(tree, K, s.by, I0, I1, kind.data(), fillOf(above, exteriorInside, 0, 0).tileKind, 0.f, leaves);
-        tbb::parallel_for(std::size_t{0}, leaves.size(), [&](std::size_t n) { fillLeaf(*leaves[n], s, sliceAt, 0.f); });
+        addLeaves(tree, leaves, s, sliceAt, 0.f);
         // Over budget: drop the last slabs' blocks, as many as it takes.
         std::uint64_t bytes = treeBytes(tree);
         while (bytes > o.budgetBytes) {
@@ -335,7 +408,7 @@ NearLevelGrid nearLevelGrid(const VoxelSource& source, const NearLevelOptions& o
         if (k + 1 < s.nz) next = readInto(sliceAt(k + 1));
         if (k == 0) lo = hi = values[0];  // as DenseVolume::range, over the whole volume in order
         detail::extendRange(values, std::size_t(slice), lo, hi);
-        if (I1 > I0) rangeRows(k);
+        if (I1 > I0) foldSlice(k);
         for (; K < s.bz && (k >= 8 * K + 9 || k + 1 == s.nz); ++K) buildLayer(K);
         if (o.progress) o.progress->update(std::size_t(k + 1), std::size_t(s.nz));
     }

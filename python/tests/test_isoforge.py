@@ -152,6 +152,33 @@ def test_marching_cubes_vertices_follow_the_array_axes_and_spacing():
     assert np.all(outward > 0)
 
 
+def test_marching_cubes_values_are_the_larger_end_of_each_vertex_edge():
+    # A ball far from the origin with an uneven spacing: the positions' float rounding must not move a
+    # vertex onto the wrong edge. Each vertex lies on a grid edge along one axis; the level lies between
+    # its two ends, and `values` is the larger.
+    vol = ball((70, 90, 110), (40, 52, 71), 17.3)
+    spacing = np.array([0.8, 1.3, 2.7])
+    for layout in (vol, np.asfortranarray(vol)):
+        verts, faces, normals, values = iso.marching_cubes(layout, 0.5, spacing=tuple(spacing))
+        idx = verts.astype(np.float64) / spacing
+        off = np.abs(idx - np.round(idx))
+        axis = np.argmax(off, axis=1)
+        assert np.all(np.sort(off, axis=1)[:, 1] < 1e-3)  # the other two axes are whole
+        lo, hi = np.round(idx).astype(int), np.round(idx).astype(int)
+        rows = np.arange(len(idx))
+        lo[rows, axis] = np.floor(idx[rows, axis])
+        hi[rows, axis] = np.ceil(idx[rows, axis])
+        a, b = vol[tuple(lo.T)], vol[tuple(hi.T)]
+        np.testing.assert_array_equal(values, np.maximum(a, b))
+        assert np.all(np.maximum(a, b) > 0.5) and np.all(np.minimum(a, b) <= 0.5)
+        # numpy's arrays, writable, alive after the call's own objects are gone
+        for arr in (verts, faces, normals, values):
+            assert arr.flags.writeable and arr.flags.c_contiguous
+        verts[:] += 1.0
+        faces[0] = faces[1]
+        assert np.all(verts.mean(axis=0) > 0)
+
+
 def test_marching_cubes_is_the_same_for_any_layout_and_dtype():
     vol = ball((30, 34, 38), (15, 16, 17), 10)
     a = iso.marching_cubes(vol, 0.0)
