@@ -189,7 +189,10 @@ public:
     }
 
 private:
-    static constexpr std::size_t kMaxCandidates = 128;
+    /// A batch searches among at most this many candidate triangles (beyond, it is cut in two, down to
+    /// kSplitPoints points, then each point searches the hierarchy). 256 rather than 128: at 256 voxels,
+    /// example010 takes 8% and example020 2% fewer instructions, the same bytes; 512 gains nothing more.
+    static constexpr std::size_t kMaxCandidates = 256;
     static constexpr std::size_t kSplitPoints = 32;
     using Hit = std::pair<Closest, std::uint32_t>;
     using Node = MeshBvhNode;
