@@ -40,7 +40,7 @@ struct NearLevelGrid {
     std::pair<float, float> range{0.f, 0.f};  ///< the whole volume's minimum and maximum
     std::int64_t xEnd = 0;                    ///< the end kept (xEnd, or one of narrowerEnds)
     std::uint64_t gridBytes = 0;              ///< the grid's memory (nodes and leaves)
-    std::uint64_t windowBytes = 0;            ///< the slices held while reading
+    std::uint64_t windowBytes = 0;            ///< what is held while reading (nearLevelWindowBytes)
     double seconds = 0;
 };
 
@@ -50,8 +50,9 @@ struct NearLevelGrid {
 /// @throw IoError when the file is cut or corrupt (voxel_source.h); ResourceError as above
 NearLevelGrid nearLevelGrid(const VoxelSource& source, const NearLevelOptions& options);
 
-/// The bytes of slices nearLevelGrid holds while it reads `source`: thirteen slices as floats (all of them
-/// if fewer) with their rows' ranges (two floats per row and block column), and one slice as stored.
+/// The bytes nearLevelGrid holds while it reads `source`: thirteen slices as floats (all of them if fewer),
+/// one slice as stored, the column ranges of a layer of cells in the making (two floats per row of cells
+/// and voxel column) and a ring of eight layers of cells (two floats per cell; a cell is 4^3 voxels).
 std::uint64_t nearLevelWindowBytes(const VoxelSource& source);
 
 }  // namespace isoforge::volume
