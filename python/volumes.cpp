@@ -47,23 +47,18 @@ Voxels voxelsOf(const py::object& input) {
     return v;
 }
 
-/// A vector of floats handed to numpy as a 1D array without a copy.
-py::array_t<float> adopt(std::vector<float>&& values) {
-    auto* owner = new std::vector<float>(std::move(values));
-    const py::capsule keep(owner, [](void* p) { delete static_cast<std::vector<float>*>(p); });
-    return py::array_t<float>(py::ssize_t(owner->size()), owner->data(), keep);
-}
-
-/// A vector of glm 3-vectors handed to numpy as an (N, 3) array of `Scalar` without a copy: numpy's
-/// array keeps the vector alive and frees it.
-template <class Scalar, class Vec>
-py::array_t<Scalar> adoptRows(std::vector<Vec>&& rows) {
-    static_assert(sizeof(Vec) == 3 * sizeof(Scalar), "three packed components");
-    auto* owner = new std::vector<Vec>(std::move(rows));
-    const py::capsule keep(owner, [](void* p) { delete static_cast<std::vector<Vec>*>(p); });
+/// A vector handed to numpy without a copy, as an (N,) array of `Scalar` or, for glm 3-vectors, an (N, 3)
+/// one: numpy's array keeps the vector alive and frees it.
+template <class Scalar, class T>
+py::array_t<Scalar> adopt(std::vector<T>&& items) {
+    constexpr auto columns = py::ssize_t(sizeof(T) / sizeof(Scalar));
+    static_assert(sizeof(T) == columns * sizeof(Scalar), "packed components");
+    auto* owner = new std::vector<T>(std::move(items));
+    const py::capsule keep(owner, [](void* p) { delete static_cast<std::vector<T>*>(p); });
     const auto n = py::ssize_t(owner->size());
-    return py::array_t<Scalar>({n, py::ssize_t(3)}, {py::ssize_t(sizeof(Vec)), py::ssize_t(sizeof(Scalar))},
-                               reinterpret_cast<const Scalar*>(owner->data()), keep);
+    const auto* data = reinterpret_cast<const Scalar*>(owner->data());
+    if constexpr (columns == 1) return py::array_t<Scalar>(n, data, keep);
+    return py::array_t<Scalar>({n, columns}, {py::ssize_t(sizeof(T)), py::ssize_t(sizeof(Scalar))}, data, keep);
 }
 
 }  // namespace
@@ -150,21 +145,19 @@ void bindVolumes(py::module_& m) {
                 // For a C-ordered array, array axis a is view axis 2 - a: the positions and normals are
                 // reversed in place, and the mesh so mirrored keeps counter-clockwise seen from outside by
                 // swapping two corners of each triangle.
-                if (!vox.fortran)
+                if (!vox.fortran) {
                     tbb::parallel_for(std::size_t{0}, t.vertexCount(), [&](std::size_t v) {
                         std::swap(t.positions[v].x, t.positions[v].z);
                         std::swap(t.normals[v].x, t.normals[v].z);
                     });
-                if (!vox.fortran)
                     tbb::parallel_for(std::size_t{0}, t.triangles.size(),
                                       [&](std::size_t i) { std::swap(t.triangles[i].y, t.triangles[i].z); });
+                }
             }
             // The mesh's own arrays become numpy's (no copy): glm's vectors are three packed 32-bit values,
             // and the indices fit int32 (checked above).
-            py::array_t<float> verts = adoptRows<float>(std::move(t.positions));
-            py::array_t<float> normals = adoptRows<float>(std::move(t.normals));
-            py::array_t<std::int32_t> faces = adoptRows<std::int32_t>(std::move(t.triangles));
-            return py::make_tuple(verts, faces, normals, adopt(std::move(values)));
+            return py::make_tuple(adopt<float>(std::move(t.positions)), adopt<std::int32_t>(std::move(t.triangles)),
+                                  adopt<float>(std::move(t.normals)), adopt<float>(std::move(values)));
         },
         py::arg("volume"), py::arg("level") = py::none(), py::kw_only(), py::arg("spacing") = py::make_tuple(1, 1, 1),
         py::arg("gradient_direction") = "descent", py::arg("step_size") = 1, py::arg("allow_degenerate") = true,

@@ -309,6 +309,17 @@ struct Around {
     }
 };
 
+/// Sources as `around` has them (its regions at offsets 0 and +8): no second walk of the tree.
+Sources sourcesOf(const Around& around) {
+    Sources src;
+    for (int i = 0; i < 8; ++i) {
+        const int j = ((i & 1) + 1) + 3 * (((i >> 1) & 1) + 1) + 9 * (((i >> 2) & 1) + 1);
+        src.data[i] = around.data[j];
+        src.constant[i] = around.constant[j];
+    }
+    return src;
+}
+
 /// Unit normal at index-space point p on the edge from block-local corner c0 along `axis`, at parameter
 /// t: the grid gradient by central differences at both ends, interpolated, mapped to world space,
 /// pointing out of the solid.
@@ -640,9 +651,13 @@ std::size_t extract(const openvdb::FloatGrid& grid, const MeshingOptions& option
                     localSurface += !ghost;
                     const BlockData& b = (*blocks)[bi];
                     const Coord origin = packer.unpack(keys[bi]);
-                    src.load(acc, origin);
+                    if (options.normals && vertexOffset[bi + 1] != vbase) {  // the 27 regions hold the 8
+                        around.load(acc, origin);
+                        src = sourcesOf(around);
+                    } else {
+                        src.load(acc, origin);
+                    }
                     computeMasks<Below>(src, iso, masks);
-                    if (options.normals && vertexOffset[bi + 1] != vbase) around.load(acc, origin);
 
                     // Vertices owned by this block, in rank order; their indices go to the slot table.
                     std::size_t vi = vbase - vfirst;
