@@ -84,6 +84,10 @@ public:
     /// True when |value| never exceeds the distance to the surface and the field is 1-Lipschitz,
     /// so that values are usable as (conservative) distances: sphere tracing, narrow bands.
     virtual bool isDistance() const { return true; }
+    /// A bound on |gradient| everywhere (the field is L-Lipschitz), infinity where none is known:
+    /// 1 for distance fields; a tape finds its own from its structure (implicit/lipschitz.cpp), so
+    /// that a ray marcher can step by |value| / L where the field is no distance but has a bound.
+    virtual float gradientBound() const { return isDistance() ? 1.f : std::numeric_limits<float>::infinity(); }
     /// A field equal to this one inside `box`, cheaper to evaluate there (CSG pruning, tape
     /// simplification, far blobs dropped); nullptr when nothing can be dropped.
     virtual FieldPtr simplify(const Box3& box) const { return nullptr; }

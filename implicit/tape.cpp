@@ -217,6 +217,15 @@ void Tape::evalChunk(const glm::vec3* p, float* out, std::size_t n, float* regs)
     std::copy(r, r + n, out);
 }
 
+float Tape::lipschitz() const {
+    float L = lipschitz_.load(std::memory_order_relaxed);
+    if (L < 0.f) {  // two threads may both compute it: the same number
+        L = lipschitzBound(code_);
+        lipschitz_.store(L, std::memory_order_relaxed);
+    }
+    return L;
+}
+
 namespace {
 Interval evalOne(const Instruction& in, Interval a, Interval b, const Box3& box) {
     switch (in.op) {
@@ -415,6 +424,7 @@ public:
     Interval bound(const Box3& box) const override { return tape_->eval(box); }
     Box3 bounds() const override { return bounds_; }
     bool isDistance() const override { return false; }
+    float gradientBound() const override { return tape_->lipschitz(); }
     FieldPtr simplify(const Box3& box) const override {
         auto t = tape_->simplify(box);
         return t ? std::make_shared<TapeField>(std::move(t), bounds_, description_) : nullptr;

@@ -6,6 +6,7 @@
 /// a box: min/max nodes whose argument intervals do not overlap keep only the side that wins, and
 /// what no longer reaches the output is dropped (what libfive and fidget call tape pruning).
 
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -61,13 +62,22 @@ public:
     /// The tape restricted to `box`, or nullptr when nothing can be dropped there; `bound`, when
     /// given, receives eval(box), which the same pass computes.
     std::shared_ptr<const Tape> simplify(const Box3& box, Interval* bound = nullptr) const;
+    /// A bound on the length of the tape's gradient everywhere (its Lipschitz constant) from its
+    /// structure alone (lipschitzBound); infinity when none is known. Computed on first use.
+    float lipschitz() const;
 
 private:
     void evalChunk(const glm::vec3* p, float* out, std::size_t n, float* regs) const;
     std::vector<Instruction> code_;
     std::vector<std::uint32_t> slot_;  ///< register of each instruction's result
     std::size_t slots_ = 0;
+    mutable std::atomic<float> lipschitz_{-1.f};  ///< negative until computed
 };
+
+/// A bound on the gradient's length of the function `code` computes, over all of space: exact for
+/// affine values, norms of affine vectors (sqrt(dx^2 + dy^2 + dz^2): 1) and their min, max, sums and
+/// scalings; infinity where a node has none (squares, products, exp, log). implicit/lipschitz.cpp.
+float lipschitzBound(const std::vector<Instruction>& code);
 
 /// A Field evaluated by a tape, bounded by a box (unbounded unless given).
 FieldPtr makeTapeField(std::shared_ptr<const Tape> tape, const Box3& bounds, std::string description);

@@ -48,7 +48,11 @@ struct Precision {
 class Marcher {
 public:
     Marcher(const implicit::Field& f, const detail::RayGenerator& rays, const Precision& p)
-        : f_(f), rays_(rays), distance_(f.isDistance()), p_(p) {}
+        : f_(f), rays_(rays), p_(p) {
+        const float L = f.gradientBound();
+        distance_ = L < std::numeric_limits<float>::infinity();
+        invL_ = L > 0.f ? 1.f / L : 1.f;
+    }
 
     /// First t in (ta, tb] where the sign differs from the sign at ta; nullopt if none.
     std::optional<float> first(const detail::Ray& r, float ta, float tb) const {
@@ -73,7 +77,7 @@ private:
         for (int i = 0; i < 2048 && t <= tb; ++i) {
             // Close to the surface: a hit only where the sign changes within a small step, so that
             // rays grazing the silhouette pass by (exact silhouettes, no dilation by the epsilon).
-            const float tn = std::min(t + std::max(side * v, 0.5f * eps(t)), tb);
+            const float tn = std::min(t + std::max(side * v * invL_, 0.5f * eps(t)), tb);
             const float vn = value(r, tn);
             if (side * vn < 0) return refine(f_, r, t, tn, side, v, vn);
             if (tn >= tb) {
@@ -140,7 +144,8 @@ private:
 
     const implicit::Field& f_;
     const detail::RayGenerator& rays_;
-    bool distance_;
+    bool distance_;  ///< L-Lipschitz with a known L: sphere tracing with steps |value| / L
+    float invL_;
     Precision p_;
 };
 

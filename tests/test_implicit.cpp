@@ -1,5 +1,6 @@
 #include <array>
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -12,6 +13,7 @@
 #include "implicit/quadric.h"
 #include "implicit/shape_spec.h"
 #include "implicit/tape.h"
+#include "test_util.h"
 
 using namespace isoforge;
 using namespace isoforge::implicit;
@@ -214,6 +216,61 @@ TEST(Tape, PruningTakesNestedMinsAsOneUnionOfTheirLeaves) {
             const glm::vec3 p = b2.centre() + 0.25f * glm::vec3(u(rng), u(rng), u(rng));
             EXPECT_EQ(ms->eval(p), m->eval(p));
         }
+}
+
+TEST(Tape, LipschitzBoundsFollowTheStructure) {
+    const float inf = std::numeric_limits<float>::infinity();
+    auto L = [](const char* e) { return parseExpression(e)->lipschitz(); };
+    // Norms of affine vectors: their Jacobian's largest singular value, not the looser Frobenius norm.
+    EXPECT_NEAR(L("sqrt(x^2 + y^2 + z^2) - 0.5"), 1.f, 1e-5f);
+    EXPECT_NEAR(L("sqrt((2*x)^2 + y^2 + z^2) - 1"), 2.f, 1e-5f);
+    EXPECT_NEAR(L("sqrt((x/2)^2 + (y - 3)^2 + z^2 + 0.25) - 1"), 1.f, 1e-5f);
+    EXPECT_NEAR(L("sqrt((0.6*x + 0.8*y)^2 + (0.8*x - 0.6*y)^2 + z^2)"), 1.f, 1e-5f);  // a rotation
+    EXPECT_NEAR(L("sqrt((x + y)^2 + (x - y)^2)"), std::sqrt(2.f), 1e-5f);
+    // min, max, abs, neg, sums, scalings, sin and cos; constants have none.
+    EXPECT_NEAR(L("max(abs(x), max(abs(y), abs(z))) - 1"), 1.f, 1e-5f);
+    EXPECT_NEAR(L("-min(sqrt(x^2 + y^2) - 1, 2*z)"), 2.f, 1e-5f);
+    EXPECT_NEAR(L("abs(x) + abs(y)"), 2.f, 1e-5f);
+    EXPECT_NEAR(L("sin(3*x) / 2"), 1.5f, 1e-5f);
+    EXPECT_NEAR(L("sqrt(abs(x)^2 + y^2)"), std::sqrt(2.f), 1e-5f);  // a non-affine term: its bound squared
+    EXPECT_EQ(L("2 + 3 * 4"), 0.f);
+    // No bound: products of variables, squares alone, exp and log, roots of what may reach 0 steeply.
+    for (const char* e : {"x * y", "x^2 + y^2 - 1", "exp(x)", "log(2 + x)", "sqrt(x^2 - 1)", "sqrt(abs(x))", "x / y",
+                          "x^4 - 5*x^2 + y^4 - 5*y^2 + z^4 - 5*z^2 + 11.8"})
+        EXPECT_EQ(L(e), inf) << e;
+    // As fields: a tape's bound; distance fields 1, the others none.
+    EXPECT_NEAR(makeTapeField(parseExpression("sqrt(x^2 + y^2 + z^2) - 1"), Box3::everything(), "s")->gradientBound(),
+                1.f, 1e-5f);
+    EXPECT_EQ(makeSphere(1.f)->gradientBound(), 1.f);
+    EXPECT_EQ(makeBlobby({{{0, 0, 0}, 1.f, 1.f}}, 0.5f, BlobKernel::Wyvill)->gradientBound(), inf);
+}
+
+TEST(Tape, LipschitzBoundsHoldOnRealModels) {
+    // |f(p) - f(q)| <= L |p - q| between random nearby points: the generated text model (8,000
+    // statements: strokes and rings by sub, square, sqrt, abs, min, max) and a union of balls.
+    std::string balls = "sqrt(x^2 + y^2 + z^2) - 0.1";
+    for (int i = 1; i < 50; ++i)
+        balls = "min(" + balls + ", sqrt((x - " + std::to_string(0.03 * i) + ")^2 + (y + " + std::to_string(0.02 * i) +
+                ")^2 + z^2) - " + std::to_string(0.05 + 0.002 * i) + ")";
+    const std::vector<std::shared_ptr<const Tape>> tapes = {
+        readVmFile((test::sourceDir() / "data" / "text.vm").string()), parseExpression(balls)};
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<float> u(-1.f, 1.f), small(-0.02f, 0.02f);
+    for (const auto& t : tapes) {
+        const float L = t->lipschitz();
+        ASSERT_TRUE(std::isfinite(L));
+        EXPECT_GE(L, 1.f);
+        float steepest = 0.f;
+        for (int i = 0; i < 4000; ++i) {
+            const glm::vec3 p(u(rng), u(rng), u(rng)), q = p + glm::vec3(small(rng), small(rng), small(rng));
+            const float d = glm::length(p - q);
+            if (d < 1e-4f) continue;
+            const float slope = std::abs(t->eval(p) - t->eval(q)) / d;
+            steepest = std::max(steepest, slope);
+            EXPECT_LE(slope, L * 1.001f + 1e-3f) << "at " << p.x << " " << p.y << " " << p.z;
+        }
+        EXPECT_GT(steepest, 0.5f * L) << "the bound should be near the steepest slope found";
+    }
 }
 
 TEST(Tape, ExpressionErrorsGiveTheColumn) {

@@ -18,6 +18,7 @@
 #include "csg/nodes.h"
 #include "csg/scene.h"
 #include "implicit/primitives.h"
+#include "implicit/tape.h"
 #include "mesh/io.h"
 #include "render/embree_renderer.h"
 #include "render/grid_march.h"
@@ -134,6 +135,57 @@ TEST(Renderers, EmbreeAndRayMarchingAgreeOnACsgScene) {
     // Measured 0.004-0.006: normals from the field's gradient vs interpolated mesh normals, and
     // shadow edges a voxel apart. 0.02 is about 5 levels of 8-bit sRGB in mid-grey.
     EXPECT_LT(diff, 0.02) << "IoU " << overlap;
+}
+
+namespace {
+/// A field with its gradient bound hidden: the marcher bisects it by intervals instead of sphere
+/// tracing it (the path tapes without a bound take).
+class WithoutBound final : public implicit::Field {
+public:
+    explicit WithoutBound(implicit::FieldPtr f) : f_(std::move(f)) {}
+    static implicit::FieldPtr wrap(implicit::FieldPtr f) { return f ? std::make_shared<WithoutBound>(f) : nullptr; }
+    float value(const glm::vec3& p) const override { return f_->value(p); }
+    implicit::Interval bound(const implicit::Box3& b) const override { return f_->bound(b); }
+    implicit::Box3 bounds() const override { return f_->bounds(); }
+    bool isDistance() const override { return false; }
+    float gradientBound() const override { return std::numeric_limits<float>::infinity(); }
+    implicit::FieldPtr simplify(const implicit::Box3& b) const override { return wrap(f_->simplify(b)); }
+    implicit::Pruned prune(const implicit::Box3& b) const override {
+        implicit::Pruned p = f_->prune(b);
+        return {wrap(p.field), p.bound};
+    }
+    std::string describe() const override { return "without bound: " + f_->describe(); }
+
+private:
+    implicit::FieldPtr f_;
+};
+}  // namespace
+
+TEST(Renderers, TapesWithAGradientBoundAreSphereTracedToTheSameImage) {
+    // A union of 60 balls on a spiral as a tape (sqrt of squares minus radii, min-combined: the
+    // structure gives the bound 1): sphere traced, it shows what interval bisection and the mesh
+    // path show.
+    std::string e = "sqrt((x - 0.7)^2 + y^2 + (z + 0.8)^2) - 0.11";
+    for (int i = 1; i < 60; ++i) {
+        const double t = i / 60.0;
+        e = "min(" + e + ", sqrt((x - " + std::to_string(0.7 * (1 - t) * std::cos(12 * t)) + ")^2 + (y - " +
+            std::to_string(0.7 * (1 - t) * std::sin(12 * t)) + ")^2 + (z - " + std::to_string(1.6 * t - 0.8) +
+            ")^2) - " + std::to_string(0.05 + 0.06 * (1 - t)) + ")";
+    }
+    const auto tape =
+        implicit::makeTapeField(implicit::parseExpression(e), implicit::Box3{glm::vec3(-1.f), glm::vec3(1.f)}, "balls");
+    ASSERT_NEAR(tape->gradientBound(), 1.f, 1e-5f);
+    const implicit::Box3 box{glm::vec3(-1.f), glm::vec3(1.f)};
+    auto o = small(320, 240);
+    render::Look look;
+    look.camera = render::frameBox(box, 320.f / 240.f);
+    const render::Frame traced = render::marchField(tape, box, look, o);
+    const render::Frame bisected = render::marchField(WithoutBound::wrap(tape), box, look, o);
+    const render::Frame cast = castByMaterial(tape, 0.004f, look, o);
+    EXPECT_GE(iou(traced, bisected), 0.999);  // measured: 1 and 1.4e-5
+    EXPECT_LT(meanColourDifference(traced, bisected), 0.002);
+    EXPECT_GE(iou(traced, cast), 0.99);
+    EXPECT_LT(meanColourDifference(traced, cast), 0.02);
 }
 
 TEST(Renderers, TranslucentObjectsCastNoShadowOnEitherPath) {
