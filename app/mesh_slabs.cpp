@@ -117,10 +117,10 @@ int meshBySlabsToFile(const SlabMeshJob& job, const GlobalOptions& g) {
         std::cerr << "isoforge: warning: no surface in " << job.what << "; writing an empty mesh\n";
     if (!g.quiet && job.source) {
         std::printf(
-            "%s, in %s pass%s over the file (%s of slices and a grid of %s near the iso-value held) in %.3f s\n",
+            "%s, in %s pass%s over the file%s (%s of slices and a grid of %s near the iso-value held) in %.3f s\n",
             readSummary(job.what, job.source->header, read.range).c_str(), withCommas(read.passes).c_str(),
-            read.passes == 1 ? "" : "es", mebibytes(read.windowBytes).c_str(), mebibytes(read.gridBytes).c_str(),
-            read.secondsRead);
+            read.passes == 1 ? "" : "es", job.source->header.files > 1 ? "s" : "", mebibytes(read.windowBytes).c_str(),
+            mebibytes(read.gridBytes).c_str(), read.secondsRead);
     }
     if (!g.quiet) {
         std::printf("meshed %s in %s slab%s of %d voxels: %s vertices, %s triangles in %.3f s -> %s\n",

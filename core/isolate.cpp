@@ -137,10 +137,11 @@ struct Pipe {
 
 namespace {
 
+/// Runs `run` (which writes the answer or the parts) and turns what it throws into an error answer.
 int respond(const std::string& what, const std::string& library, std::uint64_t memoryLimit,
-            const std::function<HelperAnswer()>& work) {
+            const std::function<int()>& run) {
     try {
-        return answer(kResult, work());
+        return run();
     } catch (const std::bad_alloc&) {
         return answer(kResourceError, what + ": reading it with " + library + " needed more than the " +
                                           std::to_string(memoryLimit >> 20) +
@@ -156,6 +157,9 @@ int respond(const std::string& what, const std::string& library, std::uint64_t m
     }
 }
 
+/// The reader gone (it stopped reading: destroyed early): nothing more to write.
+struct ReaderGone {};
+
 }  // namespace
 
 [[noreturn]] void helperMain(const std::string& what, const std::string& library, std::uint64_t memoryLimit,
@@ -163,22 +167,106 @@ int respond(const std::string& what, const std::string& library, std::uint64_t m
     if (memoryLimit > 0) limitAddressSpace(memoryLimit);
     // _exit once answered: a process that lives for one read needs no static destructors (GDCM's), and a
     // sanitizer's leak report at exit would turn a good answer into a failed process.
-    ::_exit(respond(what, library, memoryLimit, work));
+    ::_exit(respond(what, library, memoryLimit, [&] { return answer(kResult, work()); }));
 }
 
-std::string runHelper(const std::string& what, const std::string& library, const std::filesystem::path& program,
-                      const std::vector<std::string>& args) {
-    std::string body;
-    runHelper(what, library, program, args, [&](std::uint64_t size) {
-        body.resize(std::size_t(size));
-        return body.data();
-    });
-    return body;
+[[noreturn]] void helperStreamMain(const std::string& what, const std::string& library, std::uint64_t memoryLimit,
+                                   const std::function<void(const HelperSend&)>& work) {
+    if (memoryLimit > 0) limitAddressSpace(memoryLimit);
+    ::signal(SIGPIPE, SIG_IGN);  // a reader that stops reading is a failed write, not a signal
+    int rc = 0;
+    try {
+        rc = respond(what, library, memoryLimit, [&] {
+            work([](const HelperAnswer& a) {
+                if (answer(kResult, a) != 0) throw ReaderGone{};
+            });
+            return 0;
+        });
+    } catch (const ReaderGone&) {
+        rc = 3;
+    }
+    ::_exit(rc);
 }
 
-std::uint64_t runHelper(const std::string& what, const std::string& library, const std::filesystem::path& program,
-                        const std::vector<std::string>& args, const std::function<char*(std::uint64_t)>& place) {
+struct HelperStream::State {
+    std::string what, library;
+    std::filesystem::path program;
     Pipe out, err;
+    pid_t pid = -1;
+    std::string messages;  // the helper's stderr so far
+    bool outOpen = true, errOpen = true;
+    std::exception_ptr placeFailed;
+    bool tooMuch = false;  // bytes after the last part
+
+    /// Reads stderr (and stdout into `reply`, while it is not done) until `done()` or both are closed.
+    template <class Done>
+    void pump(Reply* reply, Done&& done) {
+        char buffer[1 << 16];
+        while ((outOpen || errOpen) && !done()) {
+            pollfd fds[2] = {{outOpen ? out.fd[0] : -1, POLLIN, 0}, {errOpen ? err.fd[0] : -1, POLLIN, 0}};
+            if (::poll(fds, 2, -1) < 0) {
+                if (errno == EINTR) continue;
+                break;
+            }
+            if (fds[0].fd >= 0 && (fds[0].revents & (POLLIN | POLLHUP | POLLERR))) {
+                if (reply) {
+                    if (!reply->readFrom(out.fd[0])) outOpen = false;
+                } else {  // past the last part: anything more is too much
+                    const ssize_t n = ::read(out.fd[0], buffer, sizeof buffer);
+                    if (n < 0 && errno == EINTR) continue;
+                    if (n <= 0)
+                        outOpen = false;
+                    else
+                        tooMuch = true;
+                }
+            }
+            if (fds[1].fd >= 0 && (fds[1].revents & (POLLIN | POLLHUP | POLLERR))) {
+                const ssize_t n = ::read(err.fd[0], buffer, sizeof buffer);
+                if (n < 0 && errno == EINTR) continue;
+                if (n <= 0)
+                    errOpen = false;
+                else
+                    messages.append(buffer, std::size_t(n));
+            }
+        }
+    }
+
+    /// Drains both pipes to their ends and waits for the helper; throws if it did not end well.
+    void end(bool answered) {
+        pump(nullptr, [] { return false; });
+        int status = 0;
+        while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+        }
+        pid = -1;
+        if (placeFailed) std::rethrow_exception(placeFailed);
+        if (WIFSIGNALED(status)) {
+            const int sig = WTERMSIG(status);
+            const char* name = ::strsignal(sig);
+            // The library's last words (an assertion's text), on the same line.
+            while (!messages.empty() && (messages.back() == '\n' || messages.back() == ' ')) messages.pop_back();
+            const std::size_t line = messages.rfind('\n');
+            const std::string last = line == std::string::npos ? messages : messages.substr(line + 1);
+            throw IoError(what + ": " + library + " stopped the reading process (signal " + std::to_string(sig) + ": " +
+                          (name ? name : "?") + "); the file is corrupt or of a kind " + library + " does not expect" +
+                          (last.empty() ? "" : " (" + last + ")"));
+        }
+        if (!WIFEXITED(status) || WEXITSTATUS(status) != 0 || !answered || tooMuch) {
+            const std::size_t line = messages.find('\n');
+            throw IoError(what + ": the process reading it with " + library + " (" + program.filename().string() +
+                          ") ended without an answer" +
+                          (messages.empty() ? std::string() : ": " + messages.substr(0, line)));
+        }
+    }
+};
+
+HelperStream::HelperStream(const std::string& what, const std::string& library, const std::filesystem::path& program,
+                           const std::vector<std::string>& args)
+    : s_(std::make_unique<State>()) {
+    s_->what = what;
+    s_->library = library;
+    s_->program = program;
+    Pipe& out = s_->out;
+    Pipe& err = s_->err;
     if (::pipe2(out.fd, O_CLOEXEC) != 0 || ::pipe2(err.fd, O_CLOEXEC) != 0)
         throw ResourceError(what + ": cannot create a pipe: " + std::strerror(errno));
     // A volume is tens of MB: 1 MiB at a time (the default unprivileged maximum) instead of 64 KiB, 16 times
@@ -194,77 +282,80 @@ std::uint64_t runHelper(const std::string& what, const std::string& library, con
     std::vector<char*> argv;
     for (auto& a : argv0) argv.push_back(a.data());
     argv.push_back(nullptr);
-    pid_t pid = 0;
-    const int rc = ::posix_spawn(&pid, program.c_str(), &actions, nullptr, argv.data(), environ);
+    const int rc = ::posix_spawn(&s_->pid, program.c_str(), &actions, nullptr, argv.data(), environ);
     posix_spawn_file_actions_destroy(&actions);
-    if (rc != 0) throw ResourceError(what + ": cannot start " + program.string() + ": " + std::strerror(rc));
+    if (rc != 0) {
+        s_->pid = -1;
+        throw ResourceError(what + ": cannot start " + program.string() + ": " + std::strerror(rc));
+    }
     ::close(out.fd[1]);
     ::close(err.fd[1]);
     out.fd[1] = err.fd[1] = -1;
+}
 
-    // Both pipes drained together: a helper blocked on a full stderr pipe would never finish its answer.
+HelperStream::~HelperStream() {
+    if (s_->pid > 0) {  // not finished: nobody wants the rest
+        ::kill(s_->pid, SIGKILL);
+        while (::waitpid(s_->pid, nullptr, 0) < 0 && errno == EINTR) {
+        }
+    }
+}
+
+std::uint64_t HelperStream::next(const std::function<char*(std::uint64_t)>& place) {
+    State& s = *s_;
+    if (s.pid < 0) throw IoError(s.what + ": the reading process has ended");
+    // Both pipes drained together: a helper blocked on a full stderr pipe would never finish its part.
     Reply reply(place);
-    std::string messages;
-    pollfd fds[2] = {{out.fd[0], POLLIN, 0}, {err.fd[0], POLLIN, 0}};
-    int open = 2;
-    char buffer[1 << 16];
-    while (open > 0) {
-        if (::poll(fds, 2, -1) < 0) {
-            if (errno == EINTR) continue;
-            break;
-        }
-        if (fds[0].fd >= 0 && (fds[0].revents & (POLLIN | POLLHUP | POLLERR)) && !reply.readFrom(fds[0].fd)) {
-            fds[0].fd = -1;
-            --open;
-        }
-        if (fds[1].fd >= 0 && (fds[1].revents & (POLLIN | POLLHUP | POLLERR))) {
-            const ssize_t n = ::read(fds[1].fd, buffer, sizeof buffer);
-            if (n < 0 && errno == EINTR) continue;
-            if (n <= 0) {
-                fds[1].fd = -1;
-                --open;
-            } else {
-                messages.append(buffer, std::size_t(n));
-            }
-        }
+    const auto done = [&] { return reply.complete() || reply.tooLong; };
+    s.pump(&reply, done);
+    if (reply.placeFailed) s.placeFailed = reply.placeFailed;
+    if (!reply.complete()) {
+        s.end(false);  // throws: why it ended without the part
+        throw IoError(s.what + ": the process reading it with " + s.library + " ended without an answer");
     }
-    int status = 0;
-    while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-    }
-    if (reply.placeFailed) std::rethrow_exception(reply.placeFailed);
-    if (WIFSIGNALED(status)) {
-        const int sig = WTERMSIG(status);
-        const char* name = ::strsignal(sig);
-        // The library's last words (an assertion's text), on the same line.
-        while (!messages.empty() && (messages.back() == '\n' || messages.back() == ' ')) messages.pop_back();
-        const std::size_t line = messages.rfind('\n');
-        const std::string last = line == std::string::npos ? messages : messages.substr(line + 1);
-        throw IoError(what + ": " + library + " stopped the reading process (signal " + std::to_string(sig) + ": " +
-                      (name ? name : "?") + "); the file is corrupt or of a kind " + library + " does not expect" +
-                      (last.empty() ? "" : " (" + last + ")"));
-    }
-    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0 || !reply.complete()) {
-        const std::size_t line = messages.find('\n');
-        throw IoError(what + ": the process reading it with " + library + " (" + program.filename().string() +
-                      ") ended without an answer" +
-                      (messages.empty() ? std::string() : ": " + messages.substr(0, line)));
-    }
-    // Passed on with a result; with an error, the error says it (GDCM warns at length about every file of a
-    // directory that is not DICOM).
-    const char kind = reply.kind();
-    if (!messages.empty() && kind == kResult) std::cerr << messages << std::flush;
-    switch (kind) {
+    switch (reply.kind()) {
         case kResult:
             return reply.size;
         case kParseError:
+            s.end(true);
             throw ParseError(reply.message);
         case kIoError:
+            s.end(true);
             throw IoError(reply.message);
         case kResourceError:
+            s.end(true);
             throw ResourceError(reply.message);
         default:
-            throw IoError(what + ": " + reply.message);
+            s.end(true);
+            throw IoError(s.what + ": " + reply.message);
     }
+}
+
+void HelperStream::finish() {
+    State& s = *s_;
+    if (s.pid < 0) return;
+    s.end(true);
+    // Passed on with a result; with an error, the error says it (GDCM warns at length about every file of a
+    // directory that is not DICOM).
+    if (!s.messages.empty()) std::cerr << s.messages << std::flush;
+}
+
+std::string runHelper(const std::string& what, const std::string& library, const std::filesystem::path& program,
+                      const std::vector<std::string>& args) {
+    std::string body;
+    runHelper(what, library, program, args, [&](std::uint64_t size) {
+        body.resize(std::size_t(size));
+        return body.data();
+    });
+    return body;
+}
+
+std::uint64_t runHelper(const std::string& what, const std::string& library, const std::filesystem::path& program,
+                        const std::vector<std::string>& args, const std::function<char*(std::uint64_t)>& place) {
+    HelperStream helper(what, library, program, args);
+    const std::uint64_t size = helper.next(place);
+    helper.finish();
+    return size;
 }
 
 }  // namespace isoforge

@@ -17,6 +17,30 @@
 
 namespace isoforge {
 
+/// A helper whose answer comes in parts, read as they are needed (a DICOM series slice by slice: the
+/// helper holds one slice, and the pipe's back-pressure holds it until the caller wants the next). Started
+/// as runHelper starts one; next() reads one part, finish() checks that the helper ended well. Destroyed
+/// before finish(), it kills the helper. Errors are runHelper's: what the helper's work threw (after
+/// any parts), an abort inside the library, a helper that ended without its part.
+class HelperStream {
+public:
+    HelperStream(const std::string& what, const std::string& library, const std::filesystem::path& program,
+                 const std::vector<std::string>& args);
+    ~HelperStream();
+    HelperStream(const HelperStream&) = delete;
+    HelperStream& operator=(const HelperStream&) = delete;
+
+    /// The next part's bytes, read straight into `place(size)` (a buffer of at least `size` bytes the
+    /// caller owns); returns the size. What `place` throws is thrown once the helper has ended.
+    std::uint64_t next(const std::function<char*(std::uint64_t size)>& place);
+    /// Waits for the helper's end: it must send nothing more and exit well. Its stderr is passed on.
+    void finish();
+
+private:
+    struct State;
+    std::unique_ptr<State> s_;
+};
+
 /// Runs `program` with `args` (stdin closed, stdout and stderr piped) and returns the bytes its
 /// helperMain's work returned. An IoError, ParseError or ResourceError the work threw is thrown again here
 /// with its message; a helper killed by a signal (an abort inside the library) throws
@@ -47,5 +71,10 @@ struct HelperAnswer {
 /// Ends the process (_exit) once it has answered.
 [[noreturn]] void helperMain(const std::string& what, const std::string& library, std::uint64_t memoryLimit,
                              const std::function<HelperAnswer()>& work);
+/// The same for a HelperStream: `work` calls `send` once per part (each is written before send returns,
+/// so the pipe's back-pressure paces the work). An error it throws after some parts is the stream's error.
+using HelperSend = std::function<void(const HelperAnswer&)>;
+[[noreturn]] void helperStreamMain(const std::string& what, const std::string& library, std::uint64_t memoryLimit,
+                                   const std::function<void(const HelperSend& send)>& work);
 
 }  // namespace isoforge

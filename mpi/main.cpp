@@ -62,7 +62,8 @@ int runMesh(const Args& a, MPI_Comm comm) {
             so.sample.halfWidth = a.field.halfWidth;
             so.sample.clip = clip;
         } else if (!a.input.empty() && volume::isVolumePath(a.input) && ext != ".vdb" && ext != ".raw") {
-            // Each rank reads its own slabs' x range in one pass over the file; a DICOM series whole.
+            // Each rank reads its own slabs' x range in one pass over the file (a DICOM series' slices
+            // from a reading helper of its own).
             file = volume::voxelSource(a.input);
             if (file) {
                 source.file = &*file;

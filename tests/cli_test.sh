@@ -333,6 +333,11 @@ if [ -f "$ct" ]; then
     grep -q "^peak memory .* (within half of this machine's memory, " "$tmp/out" && ok \
         || { bad "mesh CT (streamed): the summary does not say the limit was chosen"; cat "$tmp/out"; }
     cmp -s "$tmp/ct_whole.ply" "$tmp/ct_streamed.ply" && ok || bad "mesh CT (streamed): not the whole grid's bytes"
+    expect_exit 0 "mesh CT --read-whole" "$bin" mesh "$ct" --iso 1000 --normals -o "$tmp/ct_read.ply" --read-whole
+    grep -q "pass over the file" "$tmp/out" && bad "mesh CT --read-whole: streamed" || ok
+    cmp -s "$tmp/ct_whole.ply" "$tmp/ct_read.ply" && ok || bad "mesh CT --read-whole: not the whole grid's bytes"
+    expect_exit 2 "mesh --read-whole --memory" "$bin" mesh "$ct" --iso 1000 -o "$tmp/x.ply" --read-whole --memory 1G
+    expect_exit 2 "mesh --read-whole of a field" "$bin" mesh --shape "sphere(r=1)" -o "$tmp/x.ply" --read-whole
     expect_exit 0 "mesh CT --memory" "$bin" mesh "$ct" --iso 1000 --normals -o "$tmp/ct_slabs.ply" --memory 500M
     cmp -s "$tmp/ct_whole.ply" "$tmp/ct_slabs.ply" && ok || bad "mesh CT --memory: not the whole grid's bytes"
     grep -q "^peak memory .* (limit 500 MiB; " "$tmp/out" && ok || { bad "mesh CT --memory: no limit in the summary"; cat "$tmp/out"; }
@@ -346,7 +351,8 @@ if [ -f "$ct" ]; then
     cmp -s "$tmp/ct_whole.glb" "$tmp/ct.glb" && ok || bad "mesh CT to .glb: not the whole grid's bytes"
     rm -f "$tmp/ct.vdb"
 fi
-# A DICOM series is read whole, but only its blocks near the iso-value become a grid: the whole grid's bytes.
+# A DICOM series that fits is read whole, but only its blocks near the iso-value become a grid: the whole
+# grid's bytes. With --memory its slices stream from the reading helper one at a time: the same bytes.
 dicom="$shared/volumes/ct-abdomen-dicom/series"
 if [ -d "$dicom" ]; then
     "$bin" --quiet convert "$dicom" -o "$tmp/abd.vdb"
@@ -354,8 +360,23 @@ if [ -d "$dicom" ]; then
         "$bin" --quiet mesh "$tmp/abd.vdb" --iso 300 --inside $side --normals -o "$tmp/abd_whole.ply"
         expect_exit 0 "mesh DICOM --inside $side" "$bin" mesh "$dicom" --iso 300 --inside $side --normals -o "$tmp/abd.ply"
         cmp -s "$tmp/abd_whole.ply" "$tmp/abd.ply" && ok || bad "mesh DICOM --inside $side: not the whole grid's bytes"
+        expect_exit 0 "mesh DICOM --inside $side --memory 150M" "$bin" mesh "$dicom" --iso 300 --inside $side --normals \
+            -o "$tmp/abd.ply" --memory 150M
+        cmp -s "$tmp/abd_whole.ply" "$tmp/abd.ply" && ok || bad "mesh DICOM --memory: not the whole grid's bytes"
+        grep -q "(DICOM, 48 files): 512 x 512 x 48 uint16 voxels.*HU, in 1 pass over the files" "$tmp/out" && ok \
+            || { bad "mesh DICOM --memory: not streamed"; cat "$tmp/out"; }
     done
     rm -f "$tmp/abd.vdb"
+    # A slice of another size in the middle of the series (its Rows, at byte 2272 of 1-070.dcm, made 256):
+    # the header pass reads only the first slice, so the stream meets it; its error names it, no file is left.
+    mkdir -p "$tmp/odd"
+    cp "$dicom"/*.dcm "$tmp/odd/" && chmod u+w "$tmp"/odd/*.dcm
+    printf '\x00\x01' | dd of="$tmp/odd/1-070.dcm" bs=1 seek=2272 conv=notrunc 2>/dev/null
+    expect_exit 1 "mesh DICOM --memory, an odd slice" "$bin" mesh "$tmp/odd" --iso 300 -o "$tmp/odd.ply" --memory 150M
+    grep -q "1-070.dcm: 512 x 256 pixels, but the series' slices are 512 x 512" "$tmp/err" && ok \
+        || { bad "mesh DICOM --memory, odd slice: the error does not name it"; cat "$tmp/err"; }
+    [ ! -e "$tmp/odd.ply" ] && ok || bad "mesh DICOM --memory, odd slice: a partial output was left"
+    rm -rf "$tmp/odd"
     expect_exit 2 "mesh CT --memory --smooth" "$bin" mesh "$ct" --iso 1000 --smooth 1 -o "$tmp/x.ply" --memory 500M
 fi
 # A volume file streamed (never whole), keeping only the blocks near the iso-value: the same bytes, under

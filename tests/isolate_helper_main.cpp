@@ -1,6 +1,7 @@
 // A helper program for Isolate.* (tests/test_isolate.cpp): `isoforge-test-helper MODE` answers as a reader
 // helper would: big (10 MB, with 5,000 lines of warnings on stderr), empty, parse, resource, odd, abort,
-// hog (allocates 1 GiB under a 64 MiB bound), pieces (3 MB from a kept buffer, then "end").
+// hog (allocates 1 GiB under a 64 MiB bound), pieces (3 MB from a kept buffer, then "end"), stream,
+// stream-fail, stream-abort (parts for a HelperStream).
 #include <cstdlib>
 #include <iostream>
 #include <memory>
@@ -12,6 +13,19 @@
 
 int main(int argc, char** argv) {
     const std::string mode = argc > 1 ? argv[1] : "";
+    // In parts (as the DICOM helper streams slices): "one", 2 MB, "three"; or two parts then an error
+    // (stream-fail) or an abort (stream-abort).
+    if (mode.rfind("stream", 0) == 0)
+        isoforge::helperStreamMain("f", "test", 0, [&](const isoforge::HelperSend& send) {
+            send(std::string("one"));
+            if (mode == "stream-abort") {
+                std::cerr << "codec.cxx:12: Assertion `len > 0' failed.\n";
+                std::abort();
+            }
+            send(std::string(2'000'000, 'b'));
+            if (mode == "stream-fail") throw isoforge::IoError("f: slice 3 is corrupt");
+            send(std::string("three"));
+        });
     if (mode == "pieces")  // 3 MB in two pieces of a kept buffer, then "end" (as the DICOM helper answers)
         isoforge::helperMain("f", "test", 0, [] {
             auto kept = std::make_shared<std::vector<char>>(3'000'000);

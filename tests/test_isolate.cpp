@@ -88,5 +88,57 @@ TEST(Isolate, ResultsLandInTheCallersBufferAndItsErrorsWaitForTheHelper) {
     EXPECT_EQ(errno, ECHILD);
 }
 
+TEST(Isolate, StreamsComeInPartsAndTheirErrorsAfterThem) {
+    std::string part;
+    const auto into = [&](std::uint64_t n) {
+        part.assign(std::size_t(n), '\0');
+        return part.data();
+    };
+    {
+        HelperStream h("f", "test", ISOFORGE_TEST_HELPER, {"stream"});
+        EXPECT_EQ(h.next(into), 3u);
+        EXPECT_EQ(part, "one");
+        EXPECT_EQ(h.next(into), 2'000'000u);
+        EXPECT_EQ(part, std::string(2'000'000, 'b'));
+        EXPECT_EQ(h.next(into), 5u);
+        EXPECT_EQ(part, "three");
+        h.finish();
+    }
+    {  // an error after two parts: the parts, then the error
+        HelperStream h("f", "test", ISOFORGE_TEST_HELPER, {"stream-fail"});
+        h.next(into);
+        h.next(into);
+        try {
+            h.next(into);
+            ADD_FAILURE() << "no error";
+        } catch (const IoError& e) {
+            EXPECT_STREQ(e.what(), "f: slice 3 is corrupt");
+        }
+    }
+    {  // an abort after one part
+        HelperStream h("f", "test", ISOFORGE_TEST_HELPER, {"stream-abort"});
+        h.next(into);
+        try {
+            h.next(into);
+            ADD_FAILURE() << "no error";
+        } catch (const IoError& e) {
+            EXPECT_EQ(std::string(e.what()).find("f: test stopped the reading process (signal 6"), 0u) << e.what();
+            EXPECT_NE(std::string(e.what()).find("len > 0"), std::string::npos) << e.what();
+        }
+    }
+    {  // more asked for than sent
+        HelperStream h("f", "test", ISOFORGE_TEST_HELPER, {"stream"});
+        for (int i = 0; i < 3; ++i) h.next(into);
+        EXPECT_THROW(h.next(into), IoError);
+    }
+    {  // left after one part, the helper blocked on a full pipe: it is ended, not waited for forever
+        HelperStream h("f", "test", ISOFORGE_TEST_HELPER, {"stream"});
+        h.next(into);
+    }
+    errno = 0;
+    EXPECT_EQ(::waitpid(-1, nullptr, WNOHANG), -1) << "a helper left unwaited for";
+    EXPECT_EQ(errno, ECHILD);
+}
+
 }  // namespace
 }  // namespace isoforge

@@ -1,5 +1,6 @@
 // DICOM series for isoforge: read by the helper program isoforge-dicom-reader (GDCM, which Debian builds with
 // assertions, in a process of its own: volume/read_dicom_gdcm.cpp), and sent back as bytes.
+#include <algorithm>
 #include <cstdint>
 #include <cstring>
 #include <string>
@@ -76,13 +77,14 @@ struct Reader {
 
 }  // namespace
 
-DenseVolume volumeFromAnswer(std::vector<float> buffer, std::uint64_t bytes, const std::string& what) {
-    const char* all = reinterpret_cast<const char*>(buffer.data());
+/// The volume an answer describes (its description ends the answer), without its voxels; `voxelBytes`
+/// receives the size of what comes before the description.
+DenseVolume describedVolume(const char* all, std::uint64_t bytes, const std::string& what, std::uint64_t& voxelBytes) {
     std::uint64_t described = 0;
-    if (bytes < sizeof described || bytes > buffer.size() * sizeof(float)) throw shortAnswerError(what);
+    if (bytes < sizeof described) throw shortAnswerError(what);
     std::memcpy(&described, all + bytes - sizeof described, sizeof described);
     if (described > bytes - sizeof described) throw shortAnswerError(what);
-    const std::uint64_t voxelBytes = bytes - sizeof described - described;
+    voxelBytes = bytes - sizeof described - described;
     DenseVolume v;
     Reader r{all + voxelBytes, std::size_t(described), what};
     r.get(v.dims.data(), sizeof v.dims);
@@ -93,7 +95,15 @@ DenseVolume volumeFromAnswer(std::vector<float> buffer, std::uint64_t bytes, con
     for (std::string* s : {&v.format, &v.storedType, &v.units, &v.modality}) *s = r.getString();
     r.get(&notes, sizeof notes);
     for (std::uint64_t i = 0; i < notes; ++i) v.notes.push_back(r.getString());
-    if (r.at != r.size || voxelBytes != v.voxelCount() * sizeof(float))
+    if (r.at != r.size) throw IoError(what + ": the DICOM reading process sent a volume of the wrong size");
+    return v;
+}
+
+DenseVolume volumeFromAnswer(std::vector<float> buffer, std::uint64_t bytes, const std::string& what) {
+    if (bytes > buffer.size() * sizeof(float)) throw shortAnswerError(what);
+    std::uint64_t voxelBytes = 0;
+    DenseVolume v = describedVolume(reinterpret_cast<const char*>(buffer.data()), bytes, what, voxelBytes);
+    if (voxelBytes != v.voxelCount() * sizeof(float))
         throw IoError(what + ": the DICOM reading process sent a volume of the wrong size");
     buffer.resize(v.voxelCount());  // drops the description's bytes: no new allocation
     v.values = std::move(buffer);
@@ -106,21 +116,87 @@ DenseVolume deserializeVolume(const std::string& bytes, const std::string& what)
     return volumeFromAnswer(std::move(buffer), bytes.size(), what);
 }
 
-std::uint64_t dicomMemoryLimit(const std::filesystem::path& dir) {
+std::uint64_t dicomMemoryLimit(const std::filesystem::path& dir, bool streamed) {
     // What the files could justify: 64 times their bytes (decoded floats, the copy the helper sends,
-    // compressed pixel data), and 512 MiB for GDCM itself.
-    std::uint64_t bytes = 0;
+    // compressed pixel data), and 512 MiB for GDCM itself. A streamed read holds one slice at a time.
+    std::uint64_t bytes = 0, largest = 0;
     std::error_code ec;
     for (const auto& e : std::filesystem::directory_iterator(dir, ec))
-        if (e.is_regular_file(ec)) bytes += e.file_size(ec);
-    return (std::uint64_t(512) << 20) + 64 * bytes;
+        if (e.is_regular_file(ec)) {
+            const std::uint64_t size = e.file_size(ec);
+            bytes += size;
+            largest = std::max(largest, size);
+        }
+    return (std::uint64_t(512) << 20) + 64 * (streamed ? largest : bytes);
+}
+
+namespace {
+
+std::filesystem::path dicomHelper() {
+    return helperProgram("isoforge-dicom-reader", "it reads DICOM series");
+}
+
+/// The helper's arguments for a streamed read ("header": the description alone).
+std::vector<std::string> streamArguments(const std::filesystem::path& dir, const std::string& series,
+                                         const char* mode) {
+    return {dir.string(), series, std::to_string(dicomMemoryLimit(dir, true)), mode};
+}
+
+}  // namespace
+
+VoxelSource dicomSource(const std::filesystem::path& dir, const std::string& series) {
+    std::string answer;
+    runHelper(dir.string(), "GDCM", dicomHelper(), streamArguments(dir, series, "header"), [&](std::uint64_t size) {
+        answer.resize(std::size_t(size));
+        return answer.data();
+    });
+    std::uint64_t voxelBytes = 0;
+    VoxelSource s;
+    s.header = describedVolume(answer.data(), answer.size(), dir.string(), voxelBytes);
+    if (voxelBytes != 0) throw IoError(dir.string() + ": the DICOM reading process sent voxels with the header");
+    s.dicomDirectory = dir;
+    s.dicomSeries = series;
+    return s;
+}
+
+DicomSlices::DicomSlices(const VoxelSource& source) : source_(source) {}
+DicomSlices::~DicomSlices() = default;
+
+void DicomSlices::read(std::int64_t count, float* out) {
+    const DenseVolume& h = source_.header;
+    const std::string what = source_.dicomDirectory.string();
+    if (!helper_) {
+        helper_ = std::make_unique<HelperStream>(
+            what, "GDCM", dicomHelper(), streamArguments(source_.dicomDirectory, source_.dicomSeries, "stream"));
+        std::string description;
+        helper_->next([&](std::uint64_t size) {
+            description.resize(std::size_t(size));
+            return description.data();
+        });
+        std::uint64_t voxelBytes = 0;
+        const DenseVolume again = describedVolume(description.data(), description.size(), what, voxelBytes);
+        if (again.dims != h.dims || again.storedType != h.storedType)
+            throw IoError(what +
+                          ": the series changed while it was read (its slices are no longer those of its header)");
+    }
+    const std::uint64_t sliceBytes = std::uint64_t(h.dims[0]) * std::uint64_t(h.dims[1]) * sizeof(float);
+    for (std::int64_t k = 0; k < count; ++k) {
+        if (delivered_ >= h.dims[2]) throw IoError(what + ": read past the series' last slice");
+        helper_->next([&](std::uint64_t size) {
+            if (size != sliceBytes)
+                throw IoError(what + ": the DICOM reading process sent a slice of " + std::to_string(size) +
+                              " bytes; expected " + std::to_string(sliceBytes));
+            return reinterpret_cast<char*>(out + std::size_t(k) * std::size_t(sliceBytes / sizeof(float)));
+        });
+        if (++delivered_ == h.dims[2]) helper_->finish();
+    }
 }
 
 DenseVolume readDicomSeries(const std::filesystem::path& dir, const std::string& wantedSeries) {
     // GDCM (as Debian builds it) asserts on input it does not expect, which would end isoforge: it reads in
     // a helper program (core/isolate.h), and the volume comes back as bytes.
     const std::uint64_t limit = dicomMemoryLimit(dir);
-    const auto program = helperProgram("isoforge-dicom-reader", "it reads DICOM series");
+    const auto program = dicomHelper();
     // The answer lands in the volume's own voxels (the description after them is cut off): one 50 MB buffer.
     std::vector<float> buffer;
     const std::uint64_t bytes = runHelper(

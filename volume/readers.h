@@ -4,10 +4,12 @@
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "core/isolate.h"
 #include "volume/dense_volume.h"
 #include "volume/voxel_source.h"
 
@@ -19,8 +21,29 @@ DenseVolume readMetaImage(const std::filesystem::path& path);
 DenseVolume readDicomSeries(const std::filesystem::path& dir, const std::string& series);
 /// What readDicomSeries runs in its helper program (volume/dicom_reader_main.cpp): GDCM in this process.
 DenseVolume readDicomSeriesHere(const std::filesystem::path& dir, const std::string& series);
-/// The memory the DICOM helper may use for the files of `dir` (its address-space limit).
-std::uint64_t dicomMemoryLimit(const std::filesystem::path& dir);
+/// What a streamed DICOM read runs in its helper (a HelperStream): the volume's description
+/// (describeVolume, no voxels) once the first slice is read, then every slice's floats, one part each;
+/// with `headerOnly`, the description alone. It holds one slice at a time.
+void streamDicomSeriesHere(const std::filesystem::path& dir, const std::string& series, bool headerOnly,
+                           const HelperSend& send);
+/// The memory the DICOM helper may use for the files of `dir` (its address-space limit): for a whole
+/// read, what all of them justify; for a streamed one, what the largest does.
+std::uint64_t dicomMemoryLimit(const std::filesystem::path& dir, bool streamed = false);
+/// A DICOM series as a voxel source: its header from the helper (which reads the first slice for it).
+VoxelSource dicomSource(const std::filesystem::path& dir, const std::string& series);
+/// A DICOM series' slices in order, from a helper that streams them (SliceStream's DICOM side).
+class DicomSlices {
+public:
+    explicit DicomSlices(const VoxelSource& source);
+    ~DicomSlices();
+    /// The next `count` slices as floats into `out`. @throw IoError as the helper reports.
+    void read(std::int64_t count, float* out);
+
+private:
+    const VoxelSource& source_;
+    std::unique_ptr<HelperStream> helper_;
+    std::int64_t delivered_ = 0;
+};
 /// A volume as the helper answers it: its voxels (floats), then describeVolume's bytes: the dimensions, the
 /// matrix and the strings, ending with their own size (8 bytes).
 std::string describeVolume(const DenseVolume& v);

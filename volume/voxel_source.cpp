@@ -28,7 +28,7 @@ bool endsWith(const std::string& s, const std::string& e) {
 std::optional<VoxelSource> voxelSource(const std::filesystem::path& path, const VolumeReadOptions& o) {
     std::error_code ec;
     if (!std::filesystem::exists(path, ec)) throw IoError(path.string() + ": no such file or directory");
-    if (std::filesystem::is_directory(path, ec)) return std::nullopt;  // DICOM: slices in files, read whole
+    if (std::filesystem::is_directory(path, ec)) return detail::dicomSource(path, o.dicomSeries);
     const std::string n = lowerName(path);
     std::optional<VoxelSource> s;
     if (endsWith(n, ".nii") || endsWith(n, ".nii.gz")) s = detail::niftiSource(path);
@@ -59,9 +59,10 @@ struct SliceStream::State {
     bool open = false;
     z_stream z{};
     bool inflating = false;
-    std::vector<unsigned char> in;     // compressed input
-    std::vector<unsigned char> bytes;  // stored voxels of one read
-    std::uint64_t delivered = 0;       // voxel bytes handed out, all parts
+    std::vector<unsigned char> in;               // compressed input
+    std::vector<unsigned char> bytes;            // stored voxels of one read
+    std::uint64_t delivered = 0;                 // voxel bytes handed out, all parts
+    std::unique_ptr<detail::DicomSlices> dicom;  // a DICOM series' slices
 
     explicit State(const VoxelSource& s) : source(s) {}
     ~State() { close(); }
@@ -161,6 +162,10 @@ SliceStream::~SliceStream() = default;
 
 void SliceStream::read(std::int64_t count, float* out) {
     const DenseVolume& h = state_->source.header;
+    if (!state_->source.dicomDirectory.empty()) {
+        if (!state_->dicom) state_->dicom = std::make_unique<detail::DicomSlices>(state_->source);
+        return state_->dicom->read(count, out);
+    }
     const std::size_t voxels = std::size_t(h.dims[0]) * std::size_t(h.dims[1]) * std::size_t(count);
     const std::size_t size = detail::typeSize(h.storedType);
     state_->bytes.resize(voxels * size);

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -29,10 +30,15 @@ struct VoxelSource {
     std::vector<Part> parts;  ///< consecutive pieces of the voxels: x fastest, then y, then z
     bool bigEndian = false;
     float slope = 1.f, intercept = 0.f;  ///< values are slope * stored + intercept (NIfTI's scl_slope, scl_inter)
+    /// A DICOM series (its directory, and the series asked for): no parts; the slices come from the
+    /// helper that reads them with GDCM, one file at a time, in the order of their positions.
+    std::filesystem::path dicomDirectory;
+    std::string dicomSeries;
 };
 
-/// The source of a volume file's voxels, reading only its header. nullopt for what is read whole
-/// only: a DICOM series, a .vdb grid, NRRD's bzip2, hex and text encodings.
+/// The source of a volume file's voxels, reading only its header (a DICOM series: its files' headers
+/// and its first slice, in the helper). nullopt for what is read whole only: a .vdb grid, NRRD's
+/// bzip2, hex and text encodings.
 /// @throw IoError for what readVolume refuses in a header (the same messages)
 std::optional<VoxelSource> voxelSource(const std::filesystem::path& path, const VolumeReadOptions& options = {});
 
