@@ -313,6 +313,26 @@ TEST(Volumes, BrokenFilesGiveClearErrors) {
     const std::string flair = readBytes(vols() / "flair-oblique-nrrd/FLAIR.nrrd");
     writeBytes(dir / "cut.nrrd", flair.substr(0, flair.size() / 2));
     EXPECT_NE(errorOf(dir / "cut.nrrd").find("cut.nrrd: cannot read NRRD"), std::string::npos);
+    // teem quotes a field it cannot parse into a 1,025-byte buffer: a longer field line is refused at its line
+    // before teem reads it; key/value lines, which teem stores and never quotes, may be any length.
+    const std::size_t afterMagic = flair.find('\n') + 1;
+    writeBytes(dir / "long-field.nrrd",
+               flair.substr(0, afterMagic) + "space: " + std::string(3000, 'x') + "\n" + flair.substr(afterMagic));
+    EXPECT_NE(errorOf(dir / "long-field.nrrd").find("long-field.nrrd:2:901: a header line of 3007 bytes"),
+              std::string::npos)
+        << errorOf(dir / "long-field.nrrd");
+    // ... as is a data file whose path ("dir/name", which teem quotes when it cannot open it) is as long.
+    const std::string detached = "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n";
+    writeBytes(dir / "long-name.nhdr", detached + "data file: " + std::string(880, 'n') + ".raw\n");
+    EXPECT_NE(errorOf(dir / "long-name.nhdr").find("long-name.nhdr:6:12: a data file path of"), std::string::npos)
+        << errorOf(dir / "long-name.nhdr");
+    writeBytes(dir / "long-list.nhdr", detached + "data file: LIST\nshort.raw\n" + std::string(890, 'n') + "\n");
+    EXPECT_NE(errorOf(dir / "long-list.nhdr").find("long-list.nhdr:8:1: a data file path of"), std::string::npos)
+        << errorOf(dir / "long-list.nhdr");
+    writeBytes(dir / "long-value.nrrd", flair.substr(0, afterMagic) + "provenance:=" + std::string(20000, 'y') + "\n" +
+                                            flair.substr(afterMagic));
+    EXPECT_EQ(volume::readVolume(dir / "long-value.nrrd").values,
+              volume::readVolume(vols() / "flair-oblique-nrrd/FLAIR.nrrd").values);
     // MetaImage: compressed data cut short; raw data shorter than DimSize says; a bad header line.
     std::filesystem::copy_file(vols() / "frog-tissue-labels/frogtissue.mhd", dir / "frog.mhd");
     const std::string zraw = readBytes(vols() / "frog-tissue-labels/frogtissue.zraw");

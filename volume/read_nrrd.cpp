@@ -161,9 +161,39 @@ bool teemSeesTemplate(const std::string& value) {
 
 /// teem hands a "data file:" template to sprintf as it stands ("slice.%03d.raw 1 93 1" -> slice.001.raw):
 /// a file's "%s" or "%n" reads or writes through a stray argument, a wide field ("%999999999d") overruns the
-/// name's buffer. So the header is read first, and a template is taken only with one "%d" (an optional
-/// width up to 15, zero padding) and "%%"s; anything else is this file's error, at its line and column.
-void checkDataFileTemplate(const std::filesystem::path& path) {
+/// name's buffer. So a template is taken only with one "%d" (an optional width up to 15, zero padding) and
+/// "%%"s; anything else is this file's error, at its line and column.
+void checkDataFileTemplate(const std::filesystem::path& path, int number, std::size_t start, const std::string& value) {
+    if (!teemSeesTemplate(value)) return;
+    const std::string name = value.substr(0, value.find_first_of(" \t"));
+    int conversions = 0;
+    for (std::size_t i = 0; i < name.size(); ++i) {
+        if (name[i] != '%') continue;
+        if (i + 1 < name.size() && name[i + 1] == '%') {
+            ++i;
+            continue;
+        }
+        std::size_t end = i + 1;
+        while (end < name.size() && std::isdigit(static_cast<unsigned char>(name[end]))) ++end;
+        const bool fits = end - i - 1 <= 2 && (end == i + 1 || std::stoi(name.substr(i + 1, end - i - 1)) <= 15);
+        if (end >= name.size() || name[end] != 'd' || !fits || ++conversions > 1)
+            throw IoError(path.string() + ":" + std::to_string(number) + ":" + std::to_string(start + i + 1) +
+                          ": the data file template '" + name +
+                          "' may hold one %d (zero-padded to at most 15 digits, as in slice.%03d.raw) and %% "
+                          "for a percent sign, nothing else");
+        i = end;
+    }
+}
+
+/// teem formats its messages into a fixed buffer of 1,025 bytes with vsprintf, and many of them quote the
+/// line or value they could not parse ("failed to parse \"%s\" as field identifier") or the data file they
+/// could not open (its directory, "/" and name): past that the stack is smashed (a fuzz finding, in
+/// tests/data/fuzz/volume/). Key/value lines ("key:=value") and comments are stored, never quoted, so they may
+/// be any length.
+constexpr std::size_t kTeemLineLimit = 900;
+
+/// Reads a NRRD header before teem does and refuses, at its line and column, what teem would mishandle.
+void checkHeaderForTeem(const std::filesystem::path& path) {
     std::ifstream in(path, std::ios::binary);
     char magic[4] = {};
     if (!in.read(magic, 4) || std::string(magic, 4) != "NRRD") return;  // teem refuses it itself
@@ -182,44 +212,48 @@ void checkDataFileTemplate(const std::filesystem::path& path) {
         }
         return !l.empty();
     };
+    const std::size_t directory = path.parent_path().string().size() + 1;  // teem opens "dir/name"
+    const auto tooLong = [&](int number, std::size_t column, std::size_t bytes, const std::string& what) {
+        throw IoError(path.string() + ":" + std::to_string(number) + ":" + std::to_string(column) + ": " + what +
+                      " of " + std::to_string(bytes) + " bytes; NRRD headers are read up to " +
+                      std::to_string(kTeemLineLimit) + " (teem's messages overflow past that)");
+    };
+    bool list = false;  // after "data file: LIST" each line names a data file
     for (int number = 1; next(line); ++number) {
         if (line.empty()) return;  // the blank line that ends the header
+        if (list) {
+            if (directory + line.size() > kTeemLineLimit)
+                tooLong(number, 1, directory + line.size(), "a data file path");
+            continue;
+        }
+        if (line[0] == '#') continue;
         const std::size_t colon = line.find(':');
-        if (colon == std::string::npos || line.compare(colon, 2, ":=") == 0) continue;
+        const bool keyValue = colon != std::string::npos && line.compare(colon, 2, ":=") == 0;
+        if (!keyValue && line.size() > kTeemLineLimit)
+            tooLong(number, kTeemLineLimit + 1, line.size(), "a header line");
+        if (colon == std::string::npos || keyValue) continue;
         std::string field;
         for (char c : line.substr(0, colon))
             if (c != ' ') field += char(std::tolower(static_cast<unsigned char>(c)));
         if (field != "datafile") continue;
         const std::size_t start = line.find_first_not_of(" \t", colon + 1);
-        if (start == std::string::npos) return;
+        if (start == std::string::npos) continue;
         const std::string value = line.substr(start);
-        if (!teemSeesTemplate(value)) return;
-        const std::string name = value.substr(0, value.find_first_of(" \t"));
-        int conversions = 0;
-        for (std::size_t i = 0; i < name.size(); ++i) {
-            if (name[i] != '%') continue;
-            if (i + 1 < name.size() && name[i + 1] == '%') {
-                ++i;
-                continue;
-            }
-            std::size_t end = i + 1;
-            while (end < name.size() && std::isdigit(static_cast<unsigned char>(name[end]))) ++end;
-            const bool fits = end - i - 1 <= 2 && (end == i + 1 || std::stoi(name.substr(i + 1, end - i - 1)) <= 15);
-            if (end >= name.size() || name[end] != 'd' || !fits || ++conversions > 1)
-                throw IoError(path.string() + ":" + std::to_string(number) + ":" + std::to_string(start + i + 1) +
-                              ": the data file template '" + name +
-                              "' may hold one %d (zero-padded to at most 15 digits, as in slice.%03d.raw) and %% "
-                              "for a percent sign, nothing else");
-            i = end;
+        if (value.rfind("LIST", 0) == 0) {
+            list = true;
+            continue;
         }
-        return;
+        checkDataFileTemplate(path, number, start, value);
+        const std::size_t name =
+            teemSeesTemplate(value) ? std::min(value.find_first_of(" \t"), value.size()) + 10 : value.size();
+        if (directory + name > kTeemLineLimit) tooLong(number, start + 1, directory + name, "a data file path");
     }
 }
 
 }  // namespace
 
 DenseVolume readNrrd(const std::filesystem::path& path) {
-    checkDataFileTemplate(path);
+    checkHeaderForTeem(path);
     std::lock_guard<std::mutex> lock(biffMutex());
     std::unique_ptr<Nrrd, NrrdNuke> n(nrrdNew());
     if (nrrdLoad(n.get(), path.c_str(), nullptr))
@@ -234,7 +268,7 @@ DenseVolume readNrrd(const std::filesystem::path& path) {
 }
 
 std::optional<VoxelSource> nrrdSource(const std::filesystem::path& path) {
-    checkDataFileTemplate(path);
+    checkHeaderForTeem(path);
     std::lock_guard<std::mutex> lock(biffMutex());
     std::unique_ptr<Nrrd, NrrdNuke> n(nrrdNew());
     std::unique_ptr<NrrdIoState, IoStateNix> nio(nrrdIoStateNew());
