@@ -10,6 +10,7 @@ find_package(OpenVDB REQUIRED)                        # OpenVDB::openvdb (needs 
 
 find_package(embree 3 REQUIRED CONFIG)                # embree
 find_package(OpenImageIO REQUIRED CONFIG)             # OpenImageIO::OpenImageIO
+find_package(PNG REQUIRED)                            # PNG::PNG (PNG written without loading OpenImageIO)
 # Debian's OpenImageIO target lists /usr/include/opencv4 even without OpenCV installed.
 foreach(_prop INTERFACE_INCLUDE_DIRECTORIES INTERFACE_SYSTEM_INCLUDE_DIRECTORIES)
   get_target_property(_dirs OpenImageIO::OpenImageIO ${_prop})

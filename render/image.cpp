@@ -8,6 +8,7 @@
 #include "core/error.h"
 #include "core/module.h"
 #include "render/image_module.h"
+#include "render/png_writer.h"
 
 namespace isoforge::render {
 
@@ -43,7 +44,6 @@ const ImageModule& imageModule() {
 }
 
 void writeImage(const std::filesystem::path& path, const Image& image) {
-    const ImageModule& module = imageModule();
     const std::string ext = lower(path.extension().string());
     const bool floating = isFloatFormat(ext);
     std::vector<float> encoded;
@@ -64,7 +64,11 @@ void writeImage(const std::filesystem::path& path, const Image& image) {
     const std::filesystem::path temp =
         dir / ("." + path.stem().string() + ".tmp" + std::to_string(::getpid()) + path.extension().string());
     std::string error;
-    if (!module.write(path.c_str(), temp.c_str(), image, data, floating, error)) {
+    // PNG straight through libpng (render/png_writer.h); every other format through OpenImageIO.
+    const bool written = ext == ".png" && image.channels >= 1 && image.channels <= 4
+                             ? detail::writePng(temp, image, data, error)
+                             : imageModule().write(path.c_str(), temp.c_str(), image, data, floating, error);
+    if (!written) {
         std::error_code ec;
         std::filesystem::remove(temp, ec);
         throw IoError(path.string() + ": " + error);

@@ -1,5 +1,6 @@
 #pragma once
-/// @file Images and their output through OpenImageIO, loaded on the first image read or written.
+/// @file Images and their output: PNG through libpng, other formats and all reading through OpenImageIO,
+/// loaded on the first such image.
 
 #include <filesystem>
 #include <string>
@@ -19,7 +20,8 @@ struct Image {
     const float* at(int x, int y) const { return pixels.data() + (static_cast<std::size_t>(y) * width + x) * channels; }
 };
 
-/// Writes `image` atomically; the format follows the extension (.png .jpg .tif .exr ...).
+/// Writes `image` atomically; the format follows the extension (.png .jpg .tif .exr ...); PNG without
+/// loading OpenImageIO.
 /// 8- and 16-bit formats get sRGB-encoded values; float formats (EXR) keep linear values.
 /// @throw IoError if the format is unknown or the write fails (no partial file is left).
 void writeImage(const std::filesystem::path& path, const Image& image);

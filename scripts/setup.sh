@@ -9,6 +9,8 @@ packages=(
   # libraries
   libopenvdb-dev libboost-iostreams-dev libtbb-dev libembree-dev libopenimageio-dev libglm-dev zlib1g-dev
   libcli11-dev libmeshoptimizer-dev libtinygltf-dev
+  # PNG written straight through libpng (render/png_writer.cpp), other image formats through OpenImageIO
+  libpng-dev
   # Clipper 6.4, as OpenSCAD 2021.01 uses it for 2D booleans (twisted extrusions of OpenSCAD models)
   libpolyclipping-dev
   # exact predicates for the self-intersection check and convex hulls (mesh/), OpenSCAD's hull and minkowski

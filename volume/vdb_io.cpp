@@ -1,8 +1,10 @@
 #include "volume/vdb_io.h"
 
+#include <cerrno>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <memory>
 #include <mutex>
@@ -17,6 +19,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/file_read_buffer.h"
 #include "volume/vdb_compression_guard.h"
 #include "volume/vdb_layout.h"
 
@@ -137,10 +140,13 @@ public:
 };
 
 openvdb::GridPtrVec readGrids(const std::filesystem::path& path) {
+    // Read through a stream over the whole file: no delayed loading, no memory mapping, so a truncated
+    // file fails here, in the reader, and not later while meshing. Its buffer keeps the position itself:
+    // OpenVDB asks for it on every leaf (core/file_read_buffer.h).
+    FileReadBuffer buffer(path);
+    if (!buffer.isOpen()) throw IoError(path.string() + ": cannot open: " + std::strerror(errno));
     try {
-        // Read through a stream over the whole file: no delayed loading, no memory mapping, so a
-        // truncated file fails here, in the reader, and not later while meshing.
-        std::ifstream in(path, std::ios::binary);
+        std::istream in(&buffer);
         const std::uint64_t fileSize = std::filesystem::file_size(path);
         const detail::VdbLayout layout = detail::checkVdbLayout(in, fileSize, path);
         // OpenVDB does not check its stream; make a short read throw at once, rather than letting
@@ -155,6 +161,7 @@ openvdb::GridPtrVec readGrids(const std::filesystem::path& path) {
     } catch (const IoError&) {
         throw;
     } catch (const std::ios_base::failure&) {
+        if (buffer.readError()) throw IoError(path.string() + ": cannot read: " + std::strerror(buffer.readError()));
         throw IoError(path.string() + ": truncated VDB file (data ends before the grids do)");
     } catch (const openvdb::Exception& e) {
         throw IoError(path.string() + ": corrupt or truncated VDB file: " + e.what());
