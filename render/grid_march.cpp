@@ -21,6 +21,7 @@
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
 
+#include "render/depth_prepass.h"
 #include "render/shading.h"
 #include "volume/marching_cubes.h"
 
@@ -536,141 +537,6 @@ private:
     glm::vec3 invf_[3] = {};  ///< rows of the inverse of the index-to-world matrix
 };
 
-/// View depths between which a pixel's rays may cross a surface (near > far: none).
-struct DepthSpan {
-    float near, far;
-};
-
-/// The pre-pass's result: one span per pixel, or none (the pre-pass does not apply).
-class DepthSpans {
-public:
-    DepthSpans() = default;
-    explicit DepthSpans(std::size_t pixels) : spans_(new DepthSpan[pixels]) {}  // filled by the caller
-    bool empty() const { return !spans_; }
-    DepthSpan& operator[](std::size_t i) { return spans_[i]; }
-    const DepthSpan& operator[](std::size_t i) const { return spans_[i]; }
-
-private:
-    std::unique_ptr<DepthSpan[]> spans_;
-};
-
-/// Depth pre-pass: per pixel, the nearest and farthest view depths of the boxes that hold every
-/// crossed cell of every layer (volume::crossedCellBoxes) and cover the pixel's samples. Every
-/// crossing along the pixel's rays lies in such a box, so marching need only cover that span, and
-/// pixels no box covers see the background. Empty when a box is not wholly in front of a perspective
-/// camera. Two parallel passes: the boxes' pixel rectangles, then bands of rows, each filling its
-/// rows from the rectangles that reach them (no per-thread image buffers to merge).
-DepthSpans depthPrepass(const openvdb::FloatGrid& grid, const std::vector<openvdb::CoordBBox>& boxes,
-                        const detail::RayGenerator& gen, const RenderOptions& o) {
-    const auto& xform = grid.transform();
-    const std::size_t width = static_cast<std::size_t>(o.width);
-    const std::size_t pixels = width * static_cast<std::size_t>(o.height);
-    // Index space to view space (right, up, forward from the eye) as one affine map, so that a box's
-    // eight corners are its first corner plus sums of three edge vectors.
-    const openvdb::Mat4d m = xform.baseMap()->getAffineMap()->getMat4();  // row vectors: world = index * m
-    const glm::dvec3 axes[3] = {glm::dvec3(gen.right()), glm::dvec3(gen.up()), glm::dvec3(gen.forward())};
-    const glm::dvec3 eyeD(gen.camera().eye);
-    double lin[3][3], off[3];  // view_k = sum_j lin[k][j] * index_j + off[k]
-    for (int k = 0; k < 3; ++k) {
-        for (int j = 0; j < 3; ++j) lin[k][j] = axes[k].x * m(j, 0) + axes[k].y * m(j, 1) + axes[k].z * m(j, 2);
-        off[k] = axes[k].x * (m(3, 0) - eyeD.x) + axes[k].y * (m(3, 1) - eyeD.y) + axes[k].z * (m(3, 2) - eyeD.z);
-    }
-    float cx, cy, sx, sy;
-    gen.projection(cx, cy, sx, sy);
-    const bool ortho = gen.camera().orthographic;
-    const bool centreOnly = o.spp <= 1;
-
-    // Pass 1: each box's rectangle of pixels (x0 > x1 when it covers none) and depth range.
-    struct Rect {
-        int x0, x1, y0, y1;
-        float dmin, dmax;
-    };
-    std::unique_ptr<Rect[]> rects(new Rect[boxes.size()]);
-    std::atomic<bool> behind{false};
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, boxes.size(), 1024), [&](const auto& r) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) {
-            Rect& out = rects[i];
-            out.x0 = 1;
-            out.x1 = 0;
-            const openvdb::CoordBBox& box = boxes[i];
-            const double b0[3] = {double(box.min().x()), double(box.min().y()), double(box.min().z())};
-            const double e[3] = {double(box.max().x()) - b0[0], double(box.max().y()) - b0[1],
-                                 double(box.max().z()) - b0[2]};
-            double corner[8][3];
-            for (int k = 0; k < 3; ++k) {
-                corner[0][k] = lin[k][0] * b0[0] + lin[k][1] * b0[1] + lin[k][2] * b0[2] + off[k];
-                corner[1][k] = corner[0][k] + lin[k][0] * e[0];
-                corner[2][k] = corner[0][k] + lin[k][1] * e[1];
-                corner[3][k] = corner[1][k] + lin[k][1] * e[1];
-                for (int c = 0; c < 4; ++c) corner[c + 4][k] = corner[c][k] + lin[k][2] * e[2];
-            }
-            float x0 = kInf, y0 = kInf, x1 = -kInf, y1 = -kInf, dmin = kInf, dmax = -kInf;
-            for (const double* v : corner) {
-                if (!ortho && v[2] <= 1e-6) {
-                    behind = true;
-                    return;
-                }
-                const double inv = ortho ? 1.0 : 1.0 / v[2];
-                const float px = cx + sx * float(v[0] * inv), py = cy - sy * float(v[1] * inv), d = float(v[2]);
-                x0 = std::min(x0, px);
-                x1 = std::max(x1, px);
-                y0 = std::min(y0, py);
-                y1 = std::max(y1, py);
-                dmin = std::min(dmin, d);
-                dmax = std::max(dmax, d);
-            }
-            // The pixels whose samples may fall in the box's projection: with one sample per pixel,
-            // those whose centre it covers; with several (jittered in the pixel), those it overlaps.
-            // A hundredth of a pixel of slack covers rounding.
-            constexpr float kSlack = 0.01f;
-            const float W = float(o.width), H = float(o.height);
-            if (x1 < -1.f || y1 < -1.f || x0 > W + 1.f || y0 > H + 1.f) continue;
-            x0 = std::max(x0, -2.f) - kSlack;
-            y0 = std::max(y0, -2.f) - kSlack;
-            x1 = std::min(x1, W + 2.f) + kSlack;
-            y1 = std::min(y1, H + 2.f) + kSlack;
-            out.x0 = std::max(0, centreOnly ? -floorInt(0.5 - x0) : floorInt(x0));
-            out.y0 = std::max(0, centreOnly ? -floorInt(0.5 - y0) : floorInt(y0));
-            out.x1 = std::min(o.width - 1, floorInt(centreOnly ? x1 - 0.5 : x1));
-            out.y1 = std::min(o.height - 1, floorInt(centreOnly ? y1 - 0.5 : y1));
-            if (out.y0 > out.y1) out.x0 = out.x1 + 1;
-            out.dmin = dmin;
-            out.dmax = dmax;
-        }
-    });
-    if (behind) return {};
-
-    // Pass 2: rectangles listed per band of rows (counting sort), then the bands filled in parallel.
-    constexpr int kBandRows = 8;
-    const int bands = (o.height + kBandRows - 1) / kBandRows;
-    std::vector<std::uint32_t> start(static_cast<std::size_t>(bands) + 1, 0);
-    for (std::size_t i = 0; i < boxes.size(); ++i)
-        if (rects[i].x0 <= rects[i].x1)
-            for (int b = rects[i].y0 / kBandRows; b <= rects[i].y1 / kBandRows; ++b) ++start[std::size_t(b) + 1];
-    for (int b = 0; b < bands; ++b) start[std::size_t(b) + 1] += start[std::size_t(b)];
-    std::vector<std::uint32_t> list(start.back()), fill(start.begin(), start.end() - 1);
-    for (std::size_t i = 0; i < boxes.size(); ++i)
-        if (rects[i].x0 <= rects[i].x1)
-            for (int b = rects[i].y0 / kBandRows; b <= rects[i].y1 / kBandRows; ++b)
-                list[fill[std::size_t(b)]++] = static_cast<std::uint32_t>(i);
-    DepthSpans depth(pixels);
-    tbb::parallel_for(0, bands, [&](int b) {
-        const int r0 = b * kBandRows, r1 = std::min(o.height, r0 + kBandRows) - 1;
-        for (std::size_t i = std::size_t(r0) * width; i < std::size_t(r1 + 1) * width; ++i) depth[i] = {kInf, -kInf};
-        for (std::uint32_t k = start[std::size_t(b)]; k < start[std::size_t(b) + 1]; ++k) {
-            const Rect& rc = rects[list[k]];
-            for (int y = std::max(rc.y0, r0); y <= std::min(rc.y1, r1); ++y) {
-                DepthSpan* row = &depth[std::size_t(y) * width];
-                for (int x = rc.x0; x <= rc.x1; ++x) {
-                    row[x].near = std::min(row[x].near, rc.dmin);
-                    row[x].far = std::max(row[x].far, rc.dmax);
-                }
-            }
-        }
-    });
-    return depth;
-}
-
 }  // namespace
 
 struct PreparedGrid::Impl {
@@ -751,13 +617,29 @@ Frame PreparedGrid::render(const Look& look, const RenderOptions& o, RenderStats
         d.normalize();
         return Line{toIndex.transform(wo), d};
     };
-    auto blocked = [&](ThreadState& st, const glm::vec3& origin, const glm::vec3& d, float tmax) {
-        // Shadows: only opaque layers block light.
+    // Directional lights seen from the light (detail::LightView): a shadow ray towards one steps only the
+    // stretch between its start and the nearest crossed-cell box along its light pixel.
+    std::vector<std::optional<detail::LightView>> lightViews(lights.size());
+    if (o.shadows && impl_->prepass)
+        for (std::size_t li = 0; li < lights.size(); ++li)
+            if (!lights[li].point) lightViews[li] = detail::LightView::make(grid, impl_->boxes, lights[li].vector);
+    // Shadows (light `li`; none: AO and translucent layers' rays): only opaque layers block light.
+    auto blocked = [&](ThreadState& st, const glm::vec3& origin, const glm::vec3& d, float tmax,
+                       std::optional<std::size_t> li = std::nullopt) {
         const Line r = toIndexRay(origin, d);
         double t = 0;
-        const double end = std::isfinite(tmax) ? double(tmax) / voxel : std::numeric_limits<double>::max();
+        double end = std::isfinite(tmax) ? double(tmax) / voxel : std::numeric_limits<double>::max();
+        bool confined = false;
+        if (li && lightViews[*li]) {
+            if (const std::optional<float> reach = lightViews[*li]->reach(origin)) {
+                if (*reach <= 0.f) return false;  // no box between here and the light
+                end = std::min(end, double(*reach) / voxel + 1.0);
+                confined = true;
+            }
+        }
         for (int k = 0; k < 16; ++k) {
-            const auto c = marcher.first(st, r, t, end);
+            bool unused = false;
+            const auto c = confined ? marcher.near(st, r, t, end, unused, false) : marcher.first(st, r, t, end);
             if (!c) return false;
             if (layers[static_cast<std::size_t>(c->layer)].material.color.a >= 1.f) return true;
             t = c->t + 0.3;
@@ -769,18 +651,18 @@ Frame PreparedGrid::render(const Look& look, const RenderOptions& o, RenderStats
     const detail::RayGenerator gen(look.camera, o.width, o.height);
     // The depth pre-pass applies when the eye is outside every layer (nothing is crossed before the
     // first box along any ray).
-    DepthSpans span;
+    detail::DepthSpans span;
     {
         ThreadState probe(master, grid, impl_->table);
         const openvdb::Vec3d e =
             xform.worldToIndex(openvdb::Vec3d(look.camera.eye.x, look.camera.eye.y, look.camera.eye.z));
         if (impl_->prepass && marcher.insideMask(GridMarcher::sample(probe, e)) == 0)
-            span = depthPrepass(grid, impl_->boxes, gen, o);
+            span = detail::depthPrepass(grid, impl_->boxes, gen, o);
     }
     const float aoReach = o.aoDistance > 0 ? o.aoDistance : float(20 * voxel);
     // Where a covered pixel's march starts (index-ray time), from its span and the ray's index time
     // per unit of view depth.
-    auto spanStart = [](const DepthSpan& d, double perDepth) {
+    auto spanStart = [](const detail::DepthSpan& d, double perDepth) {
         return std::max(0.0, double(d.near) * perDepth - 0.01);
     };
     // One camera sample. When `lanes` is given and the pre-pass span finds the first crossing on an
@@ -802,7 +684,7 @@ Frame PreparedGrid::render(const Look& look, const RenderOptions& o, RenderStats
         if (!span.empty()) {
             // Every crossing along this ray lies between the pixel's span depths: march that stretch
             // alone, from outside (the eye is outside every layer, and nothing is crossed before).
-            const DepthSpan& d = span[pix];  // covered: checked above
+            const detail::DepthSpan& d = span[pix];  // covered: checked above
             const double perDepth = 1.0 / double(glm::dot(ray.dir, gen.forward())) / voxel;
             t = spanStart(d, perDepth);
             tEnd = double(d.far) * perDepth + 0.01;
@@ -913,7 +795,7 @@ Frame PreparedGrid::render(const Look& look, const RenderOptions& o, RenderStats
                 if (!o.shadows) return;
                 for (int k = 0; k < 16; ++k)
                     if (lit[k] &&
-                        blocked(st, glm::vec3(h.qx[k], h.qy[k], h.qz[k]), glm::vec3(lx[k], ly[k], lz[k]), reach[k]))
+                        blocked(st, glm::vec3(h.qx[k], h.qy[k], h.qz[k]), glm::vec3(lx[k], ly[k], lz[k]), reach[k], li))
                         lit[k] = 0;
             };
             alignas(64) float cr[16], cg[16], cb[16];
