@@ -39,15 +39,17 @@ from scene_march import heavy_vm  # noqa: E402  (the same generated model as the
 
 def timed(cmd, shell=False):
     """Seconds from start to exit and the process's peak resident MiB; raises on failure."""
-    t0 = time.perf_counter()
-    p = subprocess.Popen(cmd, shell=shell, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    _, status, usage = os.wait4(p.pid, 0)
-    dt = time.perf_counter() - t0
-    p.returncode = os.waitstatus_to_exitcode(status)
-    err = p.stderr.read().decode(errors="replace")
-    p.stderr.close()
-    if p.returncode != 0:
-        raise RuntimeError(f"{cmd if shell else ' '.join(cmd)} failed ({p.returncode}): {err.strip()[-500:]}")
+    # stderr to a file: a pipe nobody reads while we wait could fill and stall a chatty tool.
+    with tempfile.TemporaryFile() as err:
+        t0 = time.perf_counter()
+        p = subprocess.Popen(cmd, shell=shell, stdout=subprocess.DEVNULL, stderr=err)
+        _, status, usage = os.wait4(p.pid, 0)
+        dt = time.perf_counter() - t0
+        p.returncode = code = os.waitstatus_to_exitcode(status)
+        if code != 0:
+            err.seek(0)
+            text = err.read().decode(errors="replace").strip()[-500:]
+            raise RuntimeError(f"{cmd if shell else ' '.join(cmd)} failed ({code}): {text}")
     return dt, usage.ru_maxrss / 1024.0
 
 

@@ -16,14 +16,6 @@ namespace {
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
-/// floor() clamped to a billion either way (NaN to the low end), so that the conversion stays defined.
-inline int floorInt(double x) {
-    if (!(x > -1e9)) x = -1e9;
-    if (x > 1e9) x = 1e9;
-    const int i = static_cast<int>(x);
-    return i - (x < double(i));
-}
-
 }  // namespace
 
 DepthSpans depthPrepass(const openvdb::FloatGrid& grid, const std::vector<openvdb::CoordBBox>& boxes,

@@ -14,6 +14,15 @@
 
 namespace isoforge::render::detail {
 
+/// floor() for index and pixel positions (std::floor is a library call without SSE4.1), clamped to a
+/// billion either way (NaN to the low end) so that the conversion stays defined for any camera.
+inline int floorInt(double x) {
+    if (!(x > -1e9)) x = -1e9;
+    if (x > 1e9) x = 1e9;
+    const int i = static_cast<int>(x);
+    return i - (x < double(i));
+}
+
 /// View depths between which a pixel's rays may cross a surface (near > far: none).
 struct DepthSpan {
     float near, far;

@@ -27,6 +27,8 @@
 
 namespace isoforge::render {
 
+using detail::floorInt;
+
 namespace {
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
@@ -43,15 +45,6 @@ struct Line {
     openvdb::Vec3d o, d;  ///< d: unit length
     openvdb::Vec3d operator()(double t) const { return o + d * t; }
 };
-
-/// floor() for index positions (std::floor is a library call without SSE4.1), clamped to a billion
-/// voxels either way (NaN to the low end) so that the conversion stays defined for any camera.
-inline int floorInt(double x) {
-    if (!(x > -1e9)) x = -1e9;
-    if (x > 1e9) x = 1e9;
-    const int i = static_cast<int>(x);
-    return i - (x < double(i));
-}
 
 /// Every 8^3 region of the grid's bounding box (and one region of margin each side) in a flat
 /// array of pointers to 512 values: a leaf's buffer, or a block holding the constant value of the

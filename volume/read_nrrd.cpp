@@ -162,9 +162,8 @@ bool teemSeesTemplate(const std::string& value) {
 /// teem hands a "data file:" template to sprintf as it stands ("slice.%03d.raw 1 93 1" -> slice.001.raw):
 /// a file's "%s" or "%n" reads or writes through a stray argument, a wide field ("%999999999d") overruns the
 /// name's buffer. So a template is taken only with one "%d" (an optional width up to 15, zero padding) and
-/// "%%"s; anything else is this file's error, at its line and column.
+/// "%%"s; anything else is this file's error, at its line and column. `value`: one teemSeesTemplate takes.
 void checkDataFileTemplate(const std::filesystem::path& path, int number, std::size_t start, const std::string& value) {
-    if (!teemSeesTemplate(value)) return;
     const std::string name = value.substr(0, value.find_first_of(" \t"));
     int conversions = 0;
     for (std::size_t i = 0; i < name.size(); ++i) {
@@ -243,9 +242,10 @@ void checkHeaderForTeem(const std::filesystem::path& path) {
             list = true;
             continue;
         }
-        checkDataFileTemplate(path, number, start, value);
-        const std::size_t name =
-            teemSeesTemplate(value) ? std::min(value.find_first_of(" \t"), value.size()) + 10 : value.size();
+        const bool numbered = teemSeesTemplate(value);
+        if (numbered) checkDataFileTemplate(path, number, start, value);
+        // A numbered file's path: its template with up to ten digits for the number.
+        const std::size_t name = numbered ? std::min(value.find_first_of(" \t"), value.size()) + 10 : value.size();
         if (directory + name > kTeemLineLimit) tooLong(number, start + 1, directory + name, "a data file path");
     }
 }
