@@ -9,6 +9,7 @@
 
 #include "app/commands.h"
 #include "core/error.h"
+#include "core/warm_heap.h"
 #include "render/embree_device.h"
 #include "render/image.h"
 
@@ -37,6 +38,7 @@ std::string versionText() {
 
 int main(int argc, char** argv) {
     using namespace isoforge;
+    setWarmHeapEnabled(true);  // this process's malloc is ours to tune (core/warm_heap.h)
     CLI::App app{
         "isoforge: iso-surfaces from sparse volumes, implicit surfaces and CSG scenes.\n"
         "Meshes are watertight, manifold and outward-oriented; output is the same whatever the thread count.",
