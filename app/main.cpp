@@ -1,5 +1,6 @@
 // isoforge: the command-line front end. Only argument parsing, progress and messages live here.
 #include <cstdio>
+#include <cstdlib>
 #include <iostream>
 
 #include <openvdb/version.h>
@@ -9,7 +10,6 @@
 
 #include "app/commands.h"
 #include "core/error.h"
-#include "core/warm_heap.h"
 #include "render/embree_device.h"
 #include "render/image.h"
 
@@ -31,6 +31,10 @@ std::string versionText() {
          std::to_string(TBB_VERSION_MINOR) + ", " + isoforge::render::embreeVersion() + ", " + imageLibrary() +
          ", GLM " + std::to_string(GLM_VERSION_MAJOR) + "." + std::to_string(GLM_VERSION_MINOR) + "." +
          std::to_string(GLM_VERSION_PATCH);
+    // What the launcher (app/launcher.c) asked of glibc's malloc, or what the user set instead.
+    const char* tunables = std::getenv("GLIBC_TUNABLES");
+    v += std::string("\n  malloc: ") + (tunables && *tunables ? std::string("GLIBC_TUNABLES=") + tunables
+                                                              : std::string("glibc's defaults (no GLIBC_TUNABLES)"));
     return v;
 }
 
@@ -38,7 +42,6 @@ std::string versionText() {
 
 int main(int argc, char** argv) {
     using namespace isoforge;
-    setWarmHeapEnabled(true);  // this process's malloc is ours to tune (core/warm_heap.h)
     CLI::App app{
         "isoforge: iso-surfaces from sparse volumes, implicit surfaces and CSG scenes.\n"
         "Meshes are watertight, manifold and outward-oriented; output is the same whatever the thread count.",

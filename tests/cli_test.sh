@@ -23,6 +23,20 @@ expect_exit 0 "--help" "$bin" --help
 grep -q "mesh" "$tmp/out" && ok || bad "--help lists the mesh command"
 expect_exit 0 "--version" "$bin" --version
 grep -q "OpenVDB 10" "$tmp/out" && ok || bad "--version names OpenVDB"
+# The launcher (app/launcher.c) starts the program with malloc's heap in huge pages, adds the tunable to the
+# user's others, leaves the user's own choice alone, and says so when the program is missing.
+grep -q "malloc: GLIBC_TUNABLES=glibc.malloc.hugetlb=1$" "$tmp/out" && ok || bad "the launcher asks for huge pages"
+GLIBC_TUNABLES=glibc.malloc.tcache_count=5 expect_exit 0 "--version, other tunables" "$bin" --version
+grep -q "GLIBC_TUNABLES=glibc.malloc.tcache_count=5:glibc.malloc.hugetlb=1$" "$tmp/out" && ok ||
+    bad "the launcher adds the tunable to the user's"
+GLIBC_TUNABLES=glibc.malloc.hugetlb=0 expect_exit 0 "--version, hugetlb=0" "$bin" --version
+grep -q "GLIBC_TUNABLES=glibc.malloc.hugetlb=0$" "$tmp/out" && ok || bad "the user's hugetlb=0 wins"
+mkdir -p "$tmp/moved/bin" && cp "$(readlink -f "$bin")" "$tmp/moved/bin/isoforge"
+if [ ! -e "$(dirname "$bin")/../lib/isoforge/isoforge-main" ] || [ -e /usr/local/lib/isoforge/isoforge-main ]; then
+    ok  # an installed launcher, or one that would find an installed program: nothing to move it away from
+else
+    expect_exit 0 "a launcher moved away finds the build tree's program" "$tmp/moved/bin/isoforge" --help
+fi
 expect_exit 0 "mesh --help" "$bin" mesh --help
 grep -q -- "--iso" "$tmp/out" && ok || bad "mesh --help lists --iso"
 expect_exit 2 "no subcommand" "$bin"

@@ -1,14 +1,5 @@
-#include <fcntl.h>
-#include <malloc.h>
-#include <unistd.h>
-
-#include <cstdio>
-#include <cstring>
-
 #include <fstream>
-#include <memory>
 #include <random>
-#include <sstream>
 
 #include <gtest/gtest.h>
 #include <openvdb/io/File.h>
@@ -16,7 +7,6 @@
 
 #include "core/error.h"
 #include "core/file_read_buffer.h"
-#include "core/warm_heap.h"
 #include "test_util.h"
 #include "volume/vdb_io.h"
 
@@ -176,10 +166,8 @@ TEST(VdbIo, ReadsTheSameTreeAsOpenVdbsOwnFileReader) {
     const auto dir = test::scratchDir("vdb-file-buffer");
     auto big = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(1.f, openvdb::Vec3f(0.f), 1.f / 150, 3.f);
     volume::writeVdb(dir / "big.vdb", {big});
-    for (const auto& [path, warm] : {std::pair(test::sourceDir() / "data/sphere.vdb", false),
-                                     std::pair(dir / "big.vdb", false), std::pair(dir / "big.vdb", true)}) {
-        SCOPED_TRACE(path.string() + (warm ? ", read into a warm heap (core/warm_heap.h)" : ""));
-        setWarmHeapEnabled(warm);
+    for (const auto& path : {test::sourceDir() / "data/sphere.vdb", dir / "big.vdb"}) {
+        SCOPED_TRACE(path.string());
         openvdb::io::File file(path.string());
         file.open();
         const auto reference = openvdb::gridPtrCast<openvdb::FloatGrid>(file.getGrids()->front());
@@ -193,67 +181,4 @@ TEST(VdbIo, ReadsTheSameTreeAsOpenVdbsOwnFileReader) {
             if (!acc.isValueOn(it.getCoord()) || acc.getValue(it.getCoord()) != *it) ++differ;
         EXPECT_EQ(differ, 0u);
     }
-    setWarmHeapEnabled(false);
-}
-
-namespace {
-/// Whether the mapping that holds `p` may have transparent huge pages (its THPeligible line in smaps). Read
-/// with system calls into static buffers: an allocation here would land after the burst's leaves and hold
-/// the heap's top up.
-std::optional<bool> hugePageEligible(const void* p) {
-    static char chunk[1 << 16], line[1024];
-    const int fd = ::open("/proc/self/smaps", O_RDONLY);
-    if (fd < 0) return std::nullopt;
-    const auto at = reinterpret_cast<std::uintptr_t>(p);
-    std::optional<bool> answer;
-    bool inside = false;
-    std::size_t length = 0;
-    for (ssize_t n; !answer && (n = ::read(fd, chunk, sizeof chunk)) > 0;)
-        for (ssize_t k = 0; k < n && !answer; ++k) {
-            if (chunk[k] != '\n') {
-                if (length + 1 < sizeof line) line[length++] = chunk[k];
-                continue;
-            }
-            line[length] = 0;
-            length = 0;
-            unsigned long lo = 0, hi = 0;
-            if (std::sscanf(line, "%lx-%lx ", &lo, &hi) == 2)
-                inside = lo <= at && at < hi;
-            else if (inside && std::strncmp(line, "THPeligible:", 12) == 0)
-                answer = std::strchr(line, '1') != nullptr;
-        }
-    ::close(fd);
-    return answer;
-}
-}  // namespace
-
-TEST(WarmHeap, SmallAllocationsComeFromTheGrownAndAdvisedHeapWhichIsGivenBackAfter) {
-    // What readVdb does around each grid's tree: the main arena grown ahead, advised for huge pages, the
-    // burst's leaves served from it, and what the burst did not use returned to the system once freed.
-#if defined(__SANITIZE_ADDRESS__)
-    GTEST_SKIP() << "AddressSanitizer's allocator replaces glibc's malloc, whose heap this is about";
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-    GTEST_SKIP() << "AddressSanitizer's allocator replaces glibc's malloc, whose heap this is about";
-#endif
-#endif
-    const std::string thp = slurp("/sys/kernel/mm/transparent_hugepage/enabled");
-    if (thp.empty() || thp.find("[never]") != std::string::npos) GTEST_SKIP() << "no transparent huge pages here";
-    const std::size_t before = mallinfo2().arena;
-    // Free chunks the process already holds serve a burst first; past them, the leaves come from the top.
-    // 100 MB of them: more than the 64 MB of free top malloc keeps after the burst.
-    const std::size_t count = (mallinfo2().fordblks + (std::size_t(100) << 20)) / (512 * sizeof(float));
-    std::vector<std::unique_ptr<float[]>> leaves;
-    leaves.reserve(count);  // not in the burst, where it would hold the top up
-    setWarmHeapEnabled(true);
-    {
-        const WarmHeap warm(count * 512 * sizeof(float) + (std::size_t(64) << 20));
-        EXPECT_GE(mallinfo2().arena, before + count * 512 * sizeof(float));
-        for (std::size_t i = 0; i < count; ++i) leaves.emplace_back(new float[512]);
-    }
-    setWarmHeapEnabled(false);
-    EXPECT_EQ(hugePageEligible(leaves.back().get()), std::optional<bool>(true));
-    const WarmHeap off(std::size_t(160) << 20);  // disabled: nothing
-    leaves.clear();
-    EXPECT_LT(mallinfo2().arena, before + (std::size_t(16) << 20));
 }

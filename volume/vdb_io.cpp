@@ -20,7 +20,6 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/file_read_buffer.h"
-#include "core/warm_heap.h"
 #include "volume/vdb_compression_guard.h"
 #include "volume/vdb_layout.h"
 
@@ -130,14 +129,7 @@ public:
                 throw IoError(path.string() + ": grid '" + gd.uniqueName() + "' is of type '" + gd.gridType() +
                               "', not a volume (isoforge reads scalar, vector and mask grids)");
             grid->setSaveFloatAsHalf(gd.saveFloatAsHalf());
-            {
-                // Its tree takes up to about four times its bytes in the file (compressed leaves of 2 KB);
-                // a file written to a stream has no offsets, and its grid may take the rest of the file.
-                const std::int64_t here = std::int64_t(is.tellg());
-                const std::int64_t span = gd.getEndPos() > here ? gd.getEndPos() - here : std::int64_t(fileSize) - here;
-                const WarmHeap warm(span > 0 ? 4 * std::size_t(span) : 0);
-                Archive::readGrid(grid, gd, is);
-            }
+            Archive::readGrid(grid, gd, is);
             grids.push_back(grid);
             descriptors.push_back(gd);
             named[gd.uniqueName()] = grid;
