@@ -617,9 +617,9 @@ std::size_t extract(const openvdb::FloatGrid& grid, const MeshingOptions& option
 
         // Pass 2: vertices and triangles, each block at its own offsets.
         t0 = Clock::now();
-        // On huge pages: the resizes touch every page first, on one thread. With 4 KB pages, their
-        // faults and zeroing were a fifth of the samples of a dense surface's whole call (perf, a
-        // gyroid in 512^3 from Python: 280 MB of mesh).
+        // On huge pages, faulted in by TBB's threads before the resizes zero them (core/big_buffer.h).
+        // With 4 KB pages, their faults and zeroing were a fifth of the samples of a dense surface's
+        // whole call (perf, a gyroid in 512^3 from Python: 280 MB of mesh).
         resizeLarge(out.positions, vertexOffset[ghostEnd] - vfirst);
         resizeLarge(out.triangles, triangleOffset[last] - triangleOffset[first]);
         if (options.normals)
