@@ -1,4 +1,5 @@
-/* isoforge: starts the program itself (lib/isoforge/isoforge-main) with malloc's heap in huge pages.
+/* isoforge and isoforge-mpi: start the program itself (lib/isoforge/isoforge-main, or isoforge-mpi-main) with
+ * malloc's heap in huge pages.
  *
  * glibc backs malloc's memory with transparent huge pages only when told so before the process starts, by
  * GLIBC_TUNABLES=glibc.malloc.hugetlb=1 (read by the dynamic loader, ahead of main). isoforge builds grids,
@@ -10,7 +11,8 @@
  * library and starts in about a millisecond.
  *
  * The program is looked for at ../lib/isoforge/ beside this file (the build tree's layout and the installed
- * one), then in the build tree and the install prefix compiled in. */
+ * one), then in the build tree and the install prefix compiled in. Under mpirun each rank's process is this
+ * one until the exec, which keeps its pid, environment and MPI's variables: the rank is the program. */
 #include <errno.h>
 #include <limits.h>
 #include <stdio.h>
@@ -20,7 +22,12 @@
 
 extern char** environ;
 
-#define PROGRAM "isoforge-main"
+/* The launcher's name; its program is NAME-main: isoforge starts isoforge-main (the default), isoforge-mpi
+ * isoforge-mpi-main (mpi/CMakeLists.txt compiles this file a second time). */
+#ifndef LAUNCHER
+#define LAUNCHER "isoforge"
+#endif
+#define PROGRAM LAUNCHER "-main"
 #define TUNABLE "glibc.malloc.hugetlb=1"
 
 /* dir/../lib/isoforge/PROGRAM for the directory of this executable, into out; 0 if it cannot be named. */
@@ -74,7 +81,7 @@ int main(int argc, char** argv) {
         execve(candidates[i], argv, use);
         if (errno != ENOENT) error = errno; /* there but not runnable: the reason worth telling */
     }
-    fprintf(stderr, "isoforge: cannot start isoforge's program (%s); looked for:\n", strerror(error));
+    fprintf(stderr, LAUNCHER ": cannot start " LAUNCHER "'s program (%s); looked for:\n", strerror(error));
     for (int i = 0; i < n; ++i) fprintf(stderr, "  %s\n", candidates[i]);
     return 1;
 }

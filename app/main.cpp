@@ -9,6 +9,7 @@
 #include <glm/detail/setup.hpp>
 
 #include "app/commands.h"
+#include "app/malloc_tunables.h"
 #include "core/error.h"
 #include "render/embree_device.h"
 #include "render/image.h"
@@ -32,9 +33,7 @@ std::string versionText() {
          ", GLM " + std::to_string(GLM_VERSION_MAJOR) + "." + std::to_string(GLM_VERSION_MINOR) + "." +
          std::to_string(GLM_VERSION_PATCH);
     // What the launcher (app/launcher.c) asked of glibc's malloc, or what the user set instead.
-    const char* tunables = std::getenv("GLIBC_TUNABLES");
-    v += std::string("\n  malloc: ") + (tunables && *tunables ? std::string("GLIBC_TUNABLES=") + tunables
-                                                              : std::string("glibc's defaults (no GLIBC_TUNABLES)"));
+    v += "\n  malloc: " + isoforge::app::mallocTunablesText();
     return v;
 }
 

@@ -10,7 +10,7 @@
    strong (a fixed job, 1 and 2 ranks of one thread each, and 1..8 ranks of all threads) and weak (a
    surface growing with the rank count), with the time in MPI and the bytes the ranks exchanged.
 
-  bench/scaling.py [--build DIR] [--quick] [--huge]
+  bench/scaling.py [--build DIR] [--quick] [--huge] [--repeat N] [--scaling-only]
 """
 import argparse
 import filecmp
@@ -44,6 +44,8 @@ def main():
     ap.add_argument("--build", default=os.path.join(ROOT, "build"))
     ap.add_argument("--quick", action="store_true", help="small sizes only (a minute)")
     ap.add_argument("--huge", action="store_true", help="also 10^9 active voxels (R = 3650; 13 GB of disk)")
+    ap.add_argument("--repeat", type=int, default=3, help="runs of each strong-scaling configuration (median)")
+    ap.add_argument("--scaling-only", action="store_true", help="only the MPI tables")
     args = ap.parse_args()
     iso = os.path.join(args.build, "app", "isoforge")
     mpi = os.path.join(args.build, "mpi", "isoforge-mpi")
@@ -51,9 +53,12 @@ def main():
     tmp = tempfile.mkdtemp(prefix="isoforge-scaling-", dir=os.environ.get("TMPDIR", "/tmp"))
     radii = [250, 500] if args.quick else [500, 1000, 2000]
 
-    print("## Out-of-core vs in-memory (sphere(r=1) at voxel 1/R, whole process)\n")
-    print("| R (voxels) | triangles | in memory: s, peak MiB | --memory 1G: s, peak MiB | s per M triangles (mem / slabs) | same bytes | OpenVDB createLevelSetSphere + volumeToMesh: s, peak MiB |")
-    print("|---:|---:|---|---|---|---|---|")
+    if args.scaling_only:
+        radii = []
+    else:
+        print("## Out-of-core vs in-memory (sphere(r=1) at voxel 1/R, whole process)\n")
+        print("| R (voxels) | triangles | in memory: s, peak MiB | --memory 1G: s, peak MiB | s per M triangles (mem / slabs) | same bytes | OpenVDB createLevelSetSphere + volumeToMesh: s, peak MiB |")
+        print("|---:|---:|---|---|---|---|---|")
     for r in radii:
         voxel = "%.9g" % (1.0 / r)
         a = os.path.join(tmp, "mem.ply")
@@ -67,7 +72,7 @@ def main():
             r, format(n, ","), tm, pm, ts, ps, tm / n * 1e6, ts / n * 1e6, "yes" if same else "NO", to, po))
         os.remove(a)
         os.remove(b)
-    if args.huge:
+    if args.huge and not args.scaling_only:
         b = os.path.join(tmp, "huge.ply")
         ts, ps, out = timed([iso, "mesh", "--shape", "sphere(r=1)", "--voxel", "%.9g" % (1 / 3650.0), "-o", b,
                              "--memory", "4G"])
@@ -92,14 +97,22 @@ def main():
         m = re.search(r"MPI ([\d.]+) s, ([\d,]+) bytes exchanged; peak memory of a rank ([\d,]+) MiB", out)
         return t, float(m.group(1)), m.group(2), m.group(3)
 
+    # Each configuration runs --repeat times, the configurations in turn (this machine's speed drifts by up
+    # to 2x over minutes), and the median run is reported.
+    configs = [(1, 1), (2, 1)] + [(k, 0) for k in ([1, 2, 4] if args.quick else [1, 2, 3, 4, 6, 8])]
+    runs = {c: [] for c in configs}
+    for _ in range(args.repeat):
+        for c in configs:
+            runs[c].append(mpirun(c[0], c[1], job + ["-o", out_ply]))
     base = None
-    for n, threads in [(1, 1), (2, 1)] + [(k, 0) for k in ([1, 2, 4] if args.quick else [1, 2, 3, 4, 6, 8])]:
-        t, ms, by, pk = mpirun(n, threads, job + ["-o", out_ply])
-        if threads == 1 and n == 1:
-            base = t
-        if threads == 0 and n == 1:
+    for n, threads in configs:
+        t, ms, by, pk = sorted(runs[(n, threads)])[len(runs[(n, threads)]) // 2]
+        if n == 1:
             base = t
         print("| %d x %s | %.2f | %.2fx | %.3f | %s | %s |" % (n, threads or "all", t, base / t, ms, by, pk))
+    if args.repeat > 1:
+        print("\n(medians of %d runs each, in turn; all runs, s: %s)" % (args.repeat, "; ".join(
+            "%d x %s: %s" % (n, th or "all", ", ".join("%.2f" % r[0] for r in runs[(n, th)])) for n, th in configs)))
 
     print("\n## Weak scaling: the surface grows with the ranks (R = %d * sqrt(ranks)), oversubscribed\n" % (r // 2))
     print("| ranks | R | triangles | s | s per M triangles | MPI s | bytes exchanged |")

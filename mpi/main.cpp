@@ -9,6 +9,7 @@
 #include <tbb/info.h>
 
 #include "app/field_input.h"
+#include "app/malloc_tunables.h"
 #include "core/error.h"
 #include "core/number_text.h"
 #include "mpi/agree.h"
@@ -135,6 +136,16 @@ int runMesh(const Args& a, MPI_Comm comm) {
     return 0;
 }
 
+/// --version: ours, the MPI library's first line, and what malloc was told (the launcher's huge pages).
+std::string versionText() {
+    char library[MPI_MAX_LIBRARY_VERSION_STRING] = {};
+    int length = 0;
+    MPI_Get_library_version(library, &length);
+    std::string mpi(library, static_cast<std::size_t>(length));
+    mpi = mpi.substr(0, mpi.find_first_of(",\n"));
+    return "isoforge-mpi " ISOFORGE_VERSION "\n  " + mpi + "\n  malloc: " + app::mallocTunablesText();
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -149,6 +160,8 @@ int main(int argc, char** argv) {
     app.fallthrough();
     app.get_formatter()->column_width(36);
     Args a;
+    app.set_version_flag("--version", versionText(),
+                         "Print the version of isoforge-mpi, its MPI library and malloc's tunables, then exit");
     app.add_flag("-q,--quiet", a.quiet, "No summary; errors only");
     app.add_option("--threads", a.threads, "Worker threads per rank (default: all cores)")->check(CLI::PositiveNumber);
     app.footer("Exit status: 0 success, 1 bad input or a failed rank (message on stderr), 2 usage error.");

@@ -17,6 +17,11 @@ ok() { pass=$((pass + 1)); }
 bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
 run() { timeout 300 mpirun --oversubscribe -np "$@"; }
 
+# Each rank's process is the launcher's program, started with malloc's huge pages (app/launcher.c).
+run 2 "$mpibin" --version >"$tmp/out" 2>"$tmp/err"
+[ $? -eq 0 ] && [ "$(grep -c '^isoforge-mpi ' "$tmp/out")" -eq 1 ] && ok || { bad "--version: not one answer"; cat "$tmp/out" "$tmp/err"; }
+grep -q "malloc: GLIBC_TUNABLES=glibc.malloc.hugetlb=1$" "$tmp/out" && ok || bad "the launcher asks for huge pages"
+
 ranks="1 2 3 4"
 res=160
 [ "$full" = --full ] && { ranks="1 2 3 4 5 6 7 8"; res=700; }
