@@ -538,7 +538,7 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
         for (unsigned v : loop) mass += glm::dvec3(P[v]);
         mass /= double(loop.size());
         glm::dmat3 A(0.0);
-        glm::dvec3 b(0.0);
+        glm::dvec3 b(0.0), normalSum(0.0);  // normalSum: the Hermite normals' sum, a second fold-test direction
         for (unsigned v : loop) {
             glm::dvec3 n(gradient[v]);
             const double len = glm::length(n);
@@ -546,6 +546,7 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
             n /= len;
             A += glm::outerProduct(n, n);
             b += n * glm::dot(n, glm::dvec3(P[v]) - mass);
+            normalSum += n;
         }
         glm::dvec3 lambda;
         glm::dmat3 V;
@@ -586,6 +587,7 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
             const glm::dvec3 onSurface = glm::dvec3(q) - dist * n;
             A += glm::outerProduct(n, n);
             b += n * glm::dot(n, onSurface - mass);
+            normalSum += n;
             solve();
         }
         glm::dvec3 c = mass + x;
@@ -625,8 +627,10 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
             }
             if (!onCrease) c = glm::clamp(c, boxLo, boxHi);
         }
-        // No fold: every fan triangle turns the patch's way in the plane across the patch's normal,
-        // and the loop goes once around the apex there.
+        // No fold: the fan is a graph over a plane. Every fan triangle turns the patch's way in the plane
+        // across a direction D, and the loop goes once around the apex there. D is the patch's normal, or
+        // else the Hermite normals' mean: across a sharp ridge marching cubes' chamfer leans away from the
+        // ridge point, which a plane across the two faces' bisector still sees inside the loop.
         glm::dvec3 N(0.0);
         for (std::size_t t : tris) {
             const glm::dvec3 p0(P[mesh.triangles[t][0]]), p1(P[mesh.triangles[t][1]]), p2(P[mesh.triangles[t][2]]);
@@ -636,22 +640,26 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
             result[ci] = 3;
             return;
         }
-        N = glm::normalize(N);
-        const glm::dvec3 U = glm::normalize(std::abs(N.x) < 0.9 ? glm::cross(N, glm::dvec3(1, 0, 0))
-                                                                : glm::cross(N, glm::dvec3(0, 1, 0)));
-        const glm::dvec3 W = glm::cross(N, U);
-        double turn = 0;
-        for (std::size_t k = 0; k < loop.size(); ++k) {
-            const glm::dvec3 a = glm::dvec3(P[loop[k]]) - c, d = glm::dvec3(P[loop[(k + 1) % loop.size()]]) - c;
-            const glm::dvec2 a2(glm::dot(a, U), glm::dot(a, W)), d2(glm::dot(d, U), glm::dot(d, W));
-            const double cr = a2.x * d2.y - a2.y * d2.x;
-            if (!(cr > 1e-9 * (glm::dot(a2, a2) + glm::dot(d2, d2)))) {
-                result[ci] = 3;
-                return;
+        auto fanIsGraphOver = [&](glm::dvec3 D) {
+            D = glm::normalize(D);
+            const glm::dvec3 U = glm::normalize(std::abs(D.x) < 0.9 ? glm::cross(D, glm::dvec3(1, 0, 0))
+                                                                    : glm::cross(D, glm::dvec3(0, 1, 0)));
+            const glm::dvec3 W = glm::cross(D, U);
+            double turn = 0;
+            for (std::size_t k = 0; k < loop.size(); ++k) {
+                const glm::dvec3 a = glm::dvec3(P[loop[k]]) - c, d = glm::dvec3(P[loop[(k + 1) % loop.size()]]) - c;
+                const glm::dvec2 a2(glm::dot(a, U), glm::dot(a, W)), d2(glm::dot(d, U), glm::dot(d, W));
+                const double cr = a2.x * d2.y - a2.y * d2.x;
+                if (!(cr > 1e-9 * (glm::dot(a2, a2) + glm::dot(d2, d2)))) return false;
+                turn += std::atan2(cr, glm::dot(a2, d2));
             }
-            turn += std::atan2(cr, glm::dot(a2, d2));
-        }
-        if (!(std::abs(turn - 2.0 * M_PI) < 1e-3)) {
+            return std::abs(turn - 2.0 * M_PI) < 1e-3;
+        };
+        bool graph = fanIsGraphOver(N) || (glm::length(normalSum) > 0 && fanIsGraphOver(normalSum));
+        for (int k = 0; k < 3 && !graph; ++k)
+            if (lambda[k] > 0.1 * std::max({lambda.x, lambda.y, lambda.z}))
+                graph = fanIsGraphOver(glm::dot(V[k], N) >= 0 ? V[k] : -V[k]);
+        if (!graph) {
             result[ci] = 3;
             return;
         }
