@@ -22,8 +22,8 @@
 
 extern char** environ;
 
-/* The launcher's name; its program is NAME-main: isoforge starts isoforge-main (the default), isoforge-mpi
- * isoforge-mpi-main (mpi/CMakeLists.txt compiles this file a second time). */
+/* The launcher's name; its program is NAME-main: isoforge starts isoforge-main, isoforge-mpi starts
+ * isoforge-mpi-main (CMake's isoforge_launcher() compiles this file for each). */
 #ifndef LAUNCHER
 #define LAUNCHER "isoforge"
 #endif

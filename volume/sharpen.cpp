@@ -552,13 +552,14 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
         glm::dmat3 V;
         int rank = 0;
         glm::dvec3 x(0.0);
+        // An eigenvector is kept (a normal direction of the data) when its eigenvalue passes the rank cutoff.
+        auto kept = [&](int k) { return lambda[k] > 0.1 * std::max({lambda.x, lambda.y, lambda.z}); };
         auto solve = [&] {
             jacobi(A, lambda, V);
-            const double top = std::max({lambda.x, lambda.y, lambda.z});
             rank = 0;
             x = glm::dvec3(0.0);
             for (int k = 0; k < 3; ++k) {
-                if (!(lambda[k] > 0.1 * top)) continue;
+                if (!kept(k)) continue;
                 ++rank;
                 x += V[k] * (glm::dot(V[k], b) / lambda[k]);
             }
@@ -628,9 +629,10 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
             if (!onCrease) c = glm::clamp(c, boxLo, boxHi);
         }
         // No fold: the fan is a graph over a plane. Every fan triangle turns the patch's way in the plane
-        // across a direction D, and the loop goes once around the apex there. D is the patch's normal, or
-        // else the Hermite normals' mean: across a sharp ridge marching cubes' chamfer leans away from the
-        // ridge point, which a plane across the two faces' bisector still sees inside the loop.
+        // across a direction D, and the loop goes once around the apex there. D is the patch's normal, else
+        // the Hermite normals' mean, else each normal direction the quadric kept: across a sharp ridge
+        // marching cubes' chamfer leans away from the ridge point, which a plane across the two faces'
+        // bisector, or across one face, still sees inside the loop.
         glm::dvec3 N(0.0);
         for (std::size_t t : tris) {
             const glm::dvec3 p0(P[mesh.triangles[t][0]]), p1(P[mesh.triangles[t][1]]), p2(P[mesh.triangles[t][2]]);
@@ -657,8 +659,7 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
         };
         bool graph = fanIsGraphOver(N) || (glm::length(normalSum) > 0 && fanIsGraphOver(normalSum));
         for (int k = 0; k < 3 && !graph; ++k)
-            if (lambda[k] > 0.1 * std::max({lambda.x, lambda.y, lambda.z}))
-                graph = fanIsGraphOver(glm::dot(V[k], N) >= 0 ? V[k] : -V[k]);
+            if (kept(k)) graph = fanIsGraphOver(glm::dot(V[k], N) >= 0 ? V[k] : -V[k]);
         if (!graph) {
             result[ci] = 3;
             return;
