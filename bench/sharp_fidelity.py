@@ -2,11 +2,12 @@
 """Sharp features: isoforge mesh (plain marching cubes and --sharp) against OpenSCAD's exact mesh.
 
 For each model (bench/sharp/*.scad and OpenSCAD's example001 at $fn = 96): `openscad -o ref.stl`, then
-`isoforge mesh model.scad --resolution 256` with --no-sharp and --sharp, `isoforge compare` against the
+`isoforge mesh model.scad --resolution 256` with --no-sharp, --sharp, and --sharp --max-error of a quarter voxel
+("simplified"), `isoforge compare` against the
 reference (distance of points sampled on the reference's sharp edges to our mesh, Hausdorff, mean surface
 distance, in voxels) and `isoforge check --self-intersections`. Prints a Markdown table.
 
-  bench/sharp_fidelity.py [--isoforge PATH] [--resolution N] [model.scad ...]
+  bench/sharp_fidelity.py [--isoforge PATH] [--resolution N] [--modes plain,sharp,simplified] [model.scad ...]
 """
 import argparse
 import glob
@@ -42,6 +43,7 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--isoforge", default=os.path.join(ROOT, "build/app/isoforge"))
     ap.add_argument("--resolution", type=int, default=256)
+    ap.add_argument("--modes", default="plain,sharp,simplified")
     ap.add_argument("models", nargs="*")
     args = ap.parse_args()
     models = args.models or sorted(glob.glob(os.path.join(HERE, "sharp/*.scad"))) + [
@@ -57,12 +59,14 @@ def main():
         run(["openscad", "-o", ref] + defs + [model])
         lo, hi = bounds_of_stl(ref)
         voxel = max(h - l for l, h in zip(lo, hi)) / args.resolution
-        for mode in ["plain", "sharp"]:
+        for mode in args.modes.split(","):
             out = os.path.join(tmp, "%s_%s.ply" % (name, mode))
             cmd = [args.isoforge, "mesh", model, "--voxel", repr(voxel), "-o", out, "--quiet"]
             cmd += [a for d in zip(["-D"] * (len(defs) // 2), defs[1::2]) for a in d]
             # Both modes named: OpenSCAD models get feature vertices by default.
-            cmd.append("--sharp" if mode == "sharp" else "--no-sharp")
+            cmd.append("--no-sharp" if mode == "plain" else "--sharp")
+            if mode == "simplified":
+                cmd += ["--max-error", repr(voxel / 4)]
             _, seconds = run(cmd)
             cmp, _ = run([args.isoforge, "compare", out, ref, "--voxel", repr(voxel)])
             chk, _ = run([args.isoforge, "check", out, "--self-intersections"])

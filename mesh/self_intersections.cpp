@@ -142,24 +142,22 @@ bool trianglesIntersect(const std::array<glm::vec3, 3>& pa, const std::array<uns
             bool flat = true;
             for (const glm::dvec3& w : {B1, B2}) flat = flat && std::abs(glm::dot(w - V0, n)) < 1e-9 * size;
             if (flat) {
+                // In the plane, each triangle's angle at the apex is a sector under pi, counter-clockwise
+                // about n from its first edge to its second. Their interiors are apart when neither
+                // sector holds a bounding ray of the other; "holds" as a sine of at least -1e-6 from both
+                // bounding rays (far above rounding), so that a ray on or near a boundary goes to the
+                // exact test below.
                 const glm::dvec3 x = glm::normalize(A1 - V0), y = glm::cross(n, x);
-                auto angle = [&](const glm::dvec3& w) { return std::atan2(glm::dot(w - V0, y), glm::dot(w - V0, x)); };
-                // Sector of a: [0, ta]; of b: [tb1, tb2] (counter-clockwise, each under pi).
-                const double ta = angle(A2), tb1 = angle(B1), tb2 = angle(B2);
-                auto inside = [&](double t) { return t > -1e-9 && t < ta + 1e-9; };
-                // b's sector runs counter-clockwise from tb1 by less than pi.
-                double span = tb2 - tb1;
-                if (span < 0) span += 2 * M_PI;
-                auto inB = [&](double t) {
-                    double d = t - tb1;
-                    if (d < 0) d += 2 * M_PI;
-                    return d > -1e-9 && d < span + 1e-9;
+                auto dir = [&](const glm::dvec3& w) {
+                    return glm::normalize(glm::dvec2(glm::dot(w - V0, x), glm::dot(w - V0, y)));
                 };
-                apart = !inside(tb1) && !inside(tb2) && !inB(0.0) && !inB(ta) && ta > 0 && span < M_PI;
-                if (apart) {
-                    // clear margins only
-                    for (double t : {tb1, tb2}) apart = apart && (t < -1e-6 || t > ta + 1e-6);
-                }
+                const glm::dvec2 a1d = dir(A1), a2d = dir(A2), b1d = dir(B1), b2d = dir(B2);
+                auto cross2 = [](const glm::dvec2& p, const glm::dvec2& q) { return p.x * q.y - p.y * q.x; };
+                auto clearlyOutside = [&](const glm::dvec2& from, const glm::dvec2& to, const glm::dvec2& w) {
+                    return cross2(from, w) < -1e-6 || cross2(w, to) < -1e-6;
+                };
+                apart = cross2(a1d, a2d) > 1e-6 && cross2(b1d, b2d) > 1e-6 && clearlyOutside(a1d, a2d, b1d) &&
+                        clearlyOutside(a1d, a2d, b2d) && clearlyOutside(b1d, b2d, a1d) && clearlyOutside(b1d, b2d, a2d);
             }
         }
         if (apart)

@@ -16,12 +16,13 @@ struct SimplifyStats {
     std::size_t rejectedCrossing = 0;  ///< a new triangle would cross another (exact predicates)
 };
 
-/// Collapses edges in order of quadric error (Garland and Heckbert) while every original vertex stays
+/// Collapses edges in order of quadric error (Garland and Heckbert; plus a hundredth of the edge's squared
+/// length, so that flat regions go shortest edge first) while every original vertex stays
 /// within `maxError` (world units) of the simplified surface, measured to the triangles that replaced
 /// its own, and the new vertex lies within maxError of the original triangles around the collapsed ones.
 /// Each collapse must keep the link condition, turn no triangle over (by 90 degrees or more) nor make one
 /// degenerate, and create no intersecting pair (tested with exact predicates against the triangles
-/// near it, through a spatial hash). Colours and normals are kept for the vertices that remain.
+/// near it, through a loose octree). Colours and normals are kept for the vertices that remain.
 /// Deterministic (one thread, ties broken by edge). The mesh must be closed, manifold and oriented.
 SimplifyStats simplify(TriMesh& mesh, double maxError);
 
