@@ -211,8 +211,10 @@ private:
         auto& l = vt_[v];
         l.erase(std::remove_if(l.begin(), l.end(), [&](std::uint32_t t) { return !alive_[t]; }), l.end());
     }
-    std::vector<std::uint32_t> neighbours(std::uint32_t v) const {
-        std::vector<std::uint32_t> n;
+    /// The vertices that share a live triangle with v, sorted, into n (a buffer kept between calls: no
+    /// allocation per collapse).
+    void neighbours(std::uint32_t v, std::vector<std::uint32_t>& n) const {
+        n.clear();
         for (std::uint32_t t : vt_[v]) {
             if (!alive_[t]) continue;
             for (int k = 0; k < 3; ++k)
@@ -220,7 +222,6 @@ private:
         }
         std::sort(n.begin(), n.end());
         n.erase(std::unique(n.begin(), n.end()), n.end());
-        return n;
     }
     void bbox(const std::array<dvec3, 3>& p, dvec3& lo, dvec3& hi) const {
         lo = glm::min(p[0], glm::min(p[1], p[2]));
@@ -256,11 +257,17 @@ private:
         clean(u);
         clean(v);
         // The link condition: u and v share exactly the two vertices opposite their edge.
-        const auto nu = neighbours(u), nv = neighbours(v);
-        std::vector<std::uint32_t> common;
+        auto& nu = scratch_.nu;
+        auto& nv = scratch_.nv;
+        neighbours(u, nu);
+        neighbours(v, nv);
+        auto& common = scratch_.common;
+        common.clear();
         std::set_intersection(nu.begin(), nu.end(), nv.begin(), nv.end(), std::back_inserter(common));
-        std::vector<std::uint32_t> ring;  // triangles of u or v
-        std::vector<std::uint32_t> edgeTris;
+        auto& ring = scratch_.ring;  // triangles of u or v
+        auto& edgeTris = scratch_.edgeTris;
+        ring.clear();
+        edgeTris.clear();
         for (std::uint32_t t : vt_[u]) ring.push_back(t);
         for (std::uint32_t t : vt_[v])
             if (std::find(ring.begin(), ring.end(), t) == ring.end()) ring.push_back(t);
@@ -280,13 +287,14 @@ private:
         const dvec3 optimal = placement(u, v, cost);
         Quadric both = Q_[u];
         both += Q_[v];
-        std::vector<std::pair<double, dvec3>> options{{cost, optimal}};
+        auto& options = scratch_.options;
+        options.assign(1, {cost, optimal});
         for (const dvec3& o : {0.5 * (P_[u] + P_[v]), P_[u], P_[v]})
             if (o != optimal) options.emplace_back(std::max(both.error(o), 0.0), o);
         std::stable_sort(options.begin(), options.end(),
                          [](const auto& x, const auto& y) { return x.first < y.first; });
         dvec3 p(0.0);
-        std::vector<glm::uvec3> fresh;
+        auto& fresh = scratch_.fresh;
         bool placed = false;
         for (const auto& option : options) {
             p = option.second;
@@ -319,7 +327,8 @@ private:
         }
         auto at = [&](std::uint32_t w) { return w == u ? p : P_[w]; };
         // Distance: the original vertices owned by the ring stay within maxError of the new triangles.
-        std::vector<std::pair<std::uint32_t, std::size_t>> owners;  // original vertex -> index into fresh
+        auto& owners = scratch_.owners;  // original vertex -> index into fresh
+        owners.clear();
         std::size_t ownedCount = 0;
         for (std::uint32_t t : ring) ownedCount += owned_[t].size();
         if (ownedCount > kMaxOwned) {  // triangles this large have simplified enough; keeps each collapse cheap
@@ -328,7 +337,8 @@ private:
         }
         // The new triangle that replaces a ring triangle is where its owned vertices look first: one well
         // within the bound keeps them (on flat and gently curved regions the scan below is then skipped).
-        std::vector<std::size_t> successor(ring.size(), fresh.size());
+        auto& successor = scratch_.successor;
+        successor.assign(ring.size(), fresh.size());
         for (std::size_t r = 0, f = 0; r < ring.size(); ++r)
             if (ring[r] != edgeTris[0] && ring[r] != edgeTris[1]) successor[r] = f++;
         for (std::size_t r = 0; r < ring.size(); ++r)
@@ -455,9 +465,11 @@ private:
         // neighbours keep theirs but are offered again, since a collapse refused there (the link
         // condition, a turn, a crossing) may pass now.
         ++stamp_[u];
-        for (std::uint32_t w : neighbours(u)) {
+        neighbours(u, scratch_.nu);
+        for (std::uint32_t w : scratch_.nu) {
             push(std::min(u, w), std::max(u, w));
-            for (std::uint32_t x : neighbours(w)) {
+            neighbours(w, scratch_.nv);
+            for (std::uint32_t x : scratch_.nv) {
                 if (x == u) continue;
                 auto it = parked_.find(edgeKey(w, x));
                 if (it == parked_.end()) continue;
@@ -511,6 +523,13 @@ private:
         std::array<glm::vec3, 3> corners;
     };
     std::vector<Nearby> nearby_;
+    struct Scratch {  // a collapse's lists, kept between collapses so that none allocates
+        std::vector<std::uint32_t> nu, nv, common, ring, edgeTris;
+        std::vector<std::pair<double, dvec3>> options;
+        std::vector<glm::uvec3> fresh;
+        std::vector<std::pair<std::uint32_t, std::size_t>> owners;
+        std::vector<std::size_t> successor;
+    } scratch_;
     std::unordered_map<std::int64_t, std::vector<std::uint32_t>> origGrid_;  // cell -> original triangles
     std::vector<std::uint32_t> local_, own_;  // original triangle -> mark_ / markOwn_ when a test may use it
     std::uint32_t mark_ = 0, markOwn_ = 0;
