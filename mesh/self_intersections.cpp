@@ -24,6 +24,23 @@ using Box = CGAL::Box_intersection_d::Box_with_info_d<double, 3, std::size_t>;
 
 namespace {
 
+/// True when the points `q` (those not shared with the triangle p0 p1 p2) all lie clearly on one side of its
+/// plane, in double arithmetic with a margin far above its rounding (the inputs are floats: their differences
+/// are exact in double, the cross and dot products are within a few units in the last place).
+bool oneSideOfPlane(const glm::dvec3& p0, const glm::dvec3& p1, const glm::dvec3& p2, const glm::dvec3* q, int count) {
+    const glm::dvec3 e1 = p1 - p0, e2 = p2 - p0;
+    const glm::dvec3 n = glm::cross(e1, e2);
+    const double scale = glm::length(e1) * glm::length(e2);
+    int above = 0, below = 0;
+    for (int k = 0; k < count; ++k) {
+        const glm::dvec3 d = q[k] - p0;
+        const double s = glm::dot(n, d), err = 1e-12 * scale * glm::length(d);
+        above += s > err;
+        below += s < -err;
+    }
+    return above == count || below == count;
+}
+
 /// True when the triangles are clearly apart, decided in double arithmetic without shared vertices:
 /// their boxes do not overlap, or their projections along the dominant axis of one's normal are
 /// separated by a line through an edge, by a margin far above rounding (a point common to both
@@ -67,7 +84,11 @@ bool clearlyApart(const std::array<glm::vec3, 3>& pa, const std::array<glm::vec3
         }
         return false;
     };
-    return separates(A, B) || separates(B, A);
+    if (separates(A, B) || separates(B, A)) return true;
+    // Or one lies clearly on one side of the other's plane (Moller's first test).
+    const std::array<glm::dvec3, 3> da{glm::dvec3(pa[0]), glm::dvec3(pa[1]), glm::dvec3(pa[2])},
+        db{glm::dvec3(pb[0]), glm::dvec3(pb[1]), glm::dvec3(pb[2])};
+    return oneSideOfPlane(da[0], da[1], da[2], db.data(), 3) || oneSideOfPlane(db[0], db[1], db[2], da.data(), 3);
 }
 
 }  // namespace
@@ -160,6 +181,10 @@ bool trianglesIntersect(const std::array<glm::vec3, 3>& pa, const std::array<uns
                         clearlyOutside(a1d, a2d, b2d) && clearlyOutside(b1d, b2d, a1d) && clearlyOutside(b1d, b2d, a2d);
             }
         }
+        // Not in one plane: when b's other two corners lie clearly on one side of a's plane (or a's of b's),
+        // the two meet at the apex only.
+        const glm::dvec3 otherB[2] = {B1, B2}, otherA[2] = {A1, A2};
+        if (!apart) apart = oneSideOfPlane(V0, A1, A2, otherB, 2) || oneSideOfPlane(V0, B1, B2, otherA, 2);
         if (apart)
             hit = false;
         else

@@ -115,6 +115,7 @@ public:
         Q_.resize(nv);
         stamp_.assign(nv, 0);
         vertexAlive_.assign(nv, 1);
+        parkedAt_.assign(nv, 0);
         double edgeSum = 0;
         for (std::uint32_t t = 0; t < T_.size(); ++t) {
             const auto& tri = T_[t];
@@ -468,6 +469,7 @@ private:
         neighbours(u, scratch_.nu);
         for (std::uint32_t w : scratch_.nu) {
             push(std::min(u, w), std::max(u, w));
+            if (parkedAt_[w] == 0) continue;  // no refused edge waits around w
             neighbours(w, scratch_.nv);
             for (std::uint32_t x : scratch_.nv) {
                 if (x == u) continue;
@@ -477,6 +479,8 @@ private:
                 // rarely turns (most of the attempts were such retries), and each costs a full test.
                 if (++retries_[*it] > kMaxRetries) continue;
                 parked_.erase(it);
+                --parkedAt_[w];
+                --parkedAt_[x];
                 push(std::min(w, x), std::max(w, x));
             }
         }
@@ -485,7 +489,11 @@ private:
         return (std::uint64_t(std::min(a, b)) << 32) | std::max(a, b);
     }
     /// A refused collapse waits until a collapse next to it changes its surroundings.
-    void park(std::uint32_t a, std::uint32_t b) { parked_.insert(edgeKey(a, b)); }
+    void park(std::uint32_t a, std::uint32_t b) {
+        if (!parked_.insert(edgeKey(a, b)).second) return;
+        ++parkedAt_[a];
+        ++parkedAt_[b];
+    }
     void finish() {
         std::vector<std::int64_t> remap(P_.size(), -1);
         TriMesh out;
@@ -536,6 +544,7 @@ private:
     double cell_ = 1.0;
     std::priority_queue<Candidate> heap_;
     std::unordered_set<std::uint64_t> parked_;
+    std::vector<std::uint32_t> parkedAt_;                      // vertex -> parked edges at it
     std::unordered_map<std::uint64_t, std::uint8_t> retries_;  // edge -> times offered again
     SimplifyStats stats_;
 };

@@ -152,4 +152,31 @@ TEST(MeshCheck, CountsSelfIntersectingPairs) {
     EXPECT_EQ(p.selfIntersections.pairs, 1u);
     EXPECT_EQ(p.selfIntersections.first, std::make_pair(std::size_t{0}, std::size_t{1}));
     EXPECT_NE(p.toString().find("self-intersect  YES: 1 intersecting triangle pairs"), std::string::npos);
+    // The same apex, the other triangle tilted but wholly on one side of the first's plane (settled in
+    // double), or across it without touching (left to the exact test): no pair.
+    pierce.positions[4] = {0.5f, 0.5f, 0.25f};
+    pierce.positions[3] = {0.25f, 0.5f, 0.5f};
+    EXPECT_EQ(check(pierce, withPairs).selfIntersections.pairs, 0u);
+    pierce.positions[3] = {-1.f, -0.5f, -1.f};
+    pierce.positions[4] = {-1.f, -0.5f, 1.f};
+    EXPECT_EQ(check(pierce, withPairs).selfIntersections.pairs, 0u);
+    // The same apex in one plane: sectors apart do not intersect, sectors that overlap do, and so do
+    // sectors that touch along a ray (they share a segment beyond the apex; left to the exact test).
+    TriMesh fan;
+    fan.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {-1, 1, 0}, {1, 0.5f, 0}, {2, 2, 0}};
+    fan.triangles = {{0, 1, 2}, {0, 3, 4}};
+    EXPECT_EQ(check(fan, withPairs).selfIntersections.pairs, 0u);
+    fan.triangles = {{0, 1, 2}, {0, 2, 3}, {0, 3, 4}};  // neighbours along 0-2 and 0-3: no pair
+    EXPECT_EQ(check(fan, withPairs).selfIntersections.pairs, 0u);
+    fan.triangles = {{0, 1, 2}, {0, 5, 3}};  // 0-5-3 covers part of 0-1-2
+    EXPECT_EQ(check(fan, withPairs).selfIntersections.pairs, 1u);
+    fan.triangles = {{0, 1, 2}, {0, 6, 3}};  // 0-6 runs along 0-2 and past it
+    EXPECT_EQ(check(fan, withPairs).selfIntersections.pairs, 1u);
+    // No common vertex, boxes overlapping, one wholly above the other's plane: no pair.
+    TriMesh stacked;
+    stacked.positions = {{0, 0, 0}, {2, 0, 0}, {0, 2, 0.5f}, {0.2f, 0.2f, 0.3f}, {1, 0.2f, 0.4f}, {0.2f, 1, 0.6f}};
+    stacked.triangles = {{0, 1, 2}, {3, 4, 5}};
+    EXPECT_EQ(check(stacked, withPairs).selfIntersections.pairs, 0u);
+    stacked.positions[5].z = -0.5f;  // now it dips through
+    EXPECT_EQ(check(stacked, withPairs).selfIntersections.pairs, 1u);
 }
