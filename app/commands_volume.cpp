@@ -454,11 +454,12 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
             }
             if (sharp && !g.quiet)
                 std::printf(
-                    "sharp: %s feature vertices, %s crease flips (%s flat patches, %s kept as marching cubes made "
-                    "them, %s cells with several patches; %s crossings on the field's zero)\n",
-                    withCommas(sharpStats.features).c_str(), withCommas(sharpStats.flips).c_str(),
-                    withCommas(sharpStats.flat).c_str(), withCommas(sharpStats.kept).c_str(),
-                    withCommas(sharpStats.sharedCells).c_str(), withCommas(sharpStats.refinedVertices).c_str());
+                    "sharp: %s feature vertices (%s beyond their cells), %s crease flips (%s flat patches, %s kept "
+                    "as marching cubes made them, %s cells with several patches; %s crossings on the field's zero)\n",
+                    withCommas(sharpStats.features).c_str(), withCommas(sharpStats.reached).c_str(),
+                    withCommas(sharpStats.flips).c_str(), withCommas(sharpStats.flat).c_str(),
+                    withCommas(sharpStats.kept).c_str(), withCommas(sharpStats.sharedCells).c_str(),
+                    withCommas(sharpStats.refinedVertices).c_str());
             if (a->maxError > 0 && !g.quiet)
                 std::printf(
                     "simplified within %g: %s -> %s triangles (%s collapses; refused: %s topology, %s turned "

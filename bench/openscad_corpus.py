@@ -5,7 +5,8 @@ For each .scad model: `openscad -o X.csg` and `openscad -o X.stl` (with -D '$fn=
 never sets $fn: isoforge meshes $fn = 0 primitives as exact smooth shapes, OpenSCAD as its default
 facets), then `isoforge mesh X.csg --voxel <longest side of OpenSCAD's mesh / 256>`, timed as whole
 commands. A model passes when isoforge's mesh is closed and oriented (wherever OpenSCAD's is closed),
-its volume is within 0.5% of OpenSCAD's and each side of its bounding box within one voxel.
+its volume is within 0.5% of OpenSCAD's, each side of its bounding box within one voxel, and no two of its
+triangles intersect (`isoforge check --self-intersections`, exact predicates; not timed).
 
   bench/openscad_corpus.py                       # the whole corpus (openscad-testing-data + examples)
   bench/openscad_corpus.py --fast                # the subset the tests run (tests/data/openscad_fast.txt)
@@ -188,6 +189,10 @@ def check_model(scad, args):
         row["status"] = "isoforge fails: " + msg.replace(source, "X.csg")[:200]
         return row
     mine = read_ply(out)
+    # Exact predicates: intersecting triangle pairs (untimed).
+    rc, log, _ = run([args.isoforge, "check", out, "--self-intersections"], 600)
+    m = re.search(r"self-intersect\s+(none|YES: (\d+))", log)
+    row["pairs"] = (0 if m.group(1) == "none" else int(m.group(2))) if m else None
     os.remove(out)
     vref, vmine = volume(ref), volume(mine) if len(mine) else 0.0
     row["vol_err"] = abs(vmine - vref) / abs(vref) if vref else float("inf")
@@ -199,11 +204,11 @@ def check_model(scad, args):
     if not ref_closed:
         # OpenSCAD wrote a mesh that is not a solid (faces kept flipped, or open): its volume means
         # nothing, so only the bounding box is compared.
-        ok = row["bbox_vox"] is not None and row["bbox_vox"] <= 1.0 and row["closed"]
+        ok = row["bbox_vox"] is not None and row["bbox_vox"] <= 1.0 and row["closed"] and row["pairs"] == 0
         row["status"] = "pass (OpenSCAD's mesh open)" if ok else "FAIL (OpenSCAD's mesh open)"
         return row
     ok = row["vol_err"] <= 0.005 and row["bbox_vox"] is not None and row["bbox_vox"] <= 1.0 and \
-        (row["closed"] or not ref_closed)
+        (row["closed"] or not ref_closed) and row["pairs"] == 0
     row["status"] = "pass" if ok else "FAIL"
     return row
 
@@ -240,15 +245,15 @@ def main():
         f = lambda x, fmt: (fmt % x) if x is not None else "-"
         ratio = r["openscad_s"] / r["isoforge_s"] if r["openscad_s"] and r["isoforge_s"] else None
         if args.markdown:
-            print("| %s | %s | %s | %s | %s | %s | %s | %s |" % (
+            print("| %s | %s | %s | %s | %s | %s | %s | %s | %s |" % (
                 r["model"], r["status"], f(r["openscad_s"], "%.2f"), f(r["isoforge_s"], "%.2f"), f(ratio, "%.1fx"),
                 f(r["vol_err"] and 100 * r["vol_err"], "%.3f%%"), f(r["bbox_vox"], "%.2f"),
-                {True: "yes", False: "no", None: "-"}[r["closed"]]))
+                {True: "yes", False: "no", None: "-"}[r["closed"]], f(r.get("pairs"), "%d")))
         else:
-            print("%-60s %-28s openscad %7s s  isoforge %6s s  %7s  vol %8s  bbox %5s vox  closed %s" % (
+            print("%-60s %-28s openscad %7s s  isoforge %6s s  %7s  vol %8s  bbox %5s vox  closed %s  pairs %s" % (
                 r["model"][:60], r["status"][:28], f(r["openscad_s"], "%.2f"), f(r["isoforge_s"], "%.2f"),
                 f(ratio, "%.1fx"), f(r["vol_err"] and 100 * r["vol_err"], "%.3f%%"), f(r["bbox_vox"], "%.2f"),
-                {True: "yes", False: "no", None: "-"}[r["closed"]]), flush=True)
+                {True: "yes", False: "no", None: "-"}[r["closed"]], f(r.get("pairs"), "%d")), flush=True)
     meshed = [r for r in rows if r["status"].startswith(("pass", "FAIL", "isoforge fails"))]
     passed = [r for r in meshed if r["status"].startswith("pass")]
     ratios = [r["openscad_s"] / r["isoforge_s"] for r in meshed if r["openscad_s"] and r["isoforge_s"]]

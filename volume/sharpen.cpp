@@ -1,6 +1,7 @@
 #include "volume/sharpen.h"
 
-#include "mesh/self_intersections.h"
+#include "volume/crease_flips.h"
+#include "volume/hermite.h"
 
 #include <algorithm>
 #include <array>
@@ -15,8 +16,11 @@
 #include <tbb/parallel_sort.h>
 #include <glm/geometric.hpp>
 #include <glm/mat3x3.hpp>
+#include <glm/vector_relational.hpp>
 
 namespace isoforge::volume {
+
+using namespace hermite;
 
 namespace {
 
@@ -41,59 +45,6 @@ Edge edgeOf(const glm::vec3& p) {
     }
     for (int k = 0; k < 3; ++k) e.corner[k] = k == e.axis ? int(std::floor(p[k])) : int(std::lround(p[k]));
     return e;
-}
-
-constexpr float kStep = 1e-3f;  // central differences of the field, in voxels
-
-/// The six points of the central differences at p, appended to `out`.
-void appendStencil(const glm::vec3& p, std::vector<glm::vec3>& out) {
-    for (int k = 0; k < 3; ++k) {
-        glm::vec3 a = p, b = p;
-        a[k] -= kStep;
-        b[k] += kStep;
-        out.push_back(a);
-        out.push_back(b);
-    }
-}
-
-/// The gradient from the values at appendStencil's six points.
-glm::vec3 stencilGradient(const float* v) {
-    return glm::vec3(v[1] - v[0], v[3] - v[2], v[5] - v[4]) / (2.f * kStep);
-}
-
-/// The field's gradient at each point: its own where it gives one (the active branch of a min or
-/// max, exactly), else central differences of its values.
-void gradientsAt(const IndexValues& f, std::span<const glm::vec3> p, std::vector<glm::vec3>& out) {
-    out.resize(p.size());
-    if (f.gradients) {
-        f.gradients(p, out);
-        return;
-    }
-    std::vector<glm::vec3> pts;
-    pts.reserve(6 * p.size());
-    for (const glm::vec3& q : p) appendStencil(q, pts);
-    std::vector<float> v(pts.size());
-    f(pts, v);
-    for (std::size_t i = 0; i < p.size(); ++i) out[i] = stencilGradient(&v[6 * i]);
-}
-
-/// An index-space box grown point by point.
-struct Bounds {
-    glm::vec3 lo{std::numeric_limits<float>::infinity()}, hi{-std::numeric_limits<float>::infinity()};
-    void add(const glm::vec3& p) {
-        lo = glm::min(lo, p);
-        hi = glm::max(hi, p);
-    }
-    /// The field there, with room for the central differences around every point added.
-    IndexValues of(const IndexField& field) const { return field(lo - 4.f * kStep, hi + 4.f * kStep); }
-};
-
-/// Batches: vertices, cells and crease candidates are taken this many at a time, neighbours in the
-/// mesh's order (marching cubes writes block by block), so that each batch asks for a small box.
-constexpr std::size_t kBatch = 64;
-
-std::size_t batchCount(std::size_t n) {
-    return (n + kBatch - 1) / kBatch;
 }
 
 /// Eigen-decomposition of a symmetric 3x3 matrix by cyclic Jacobi rotations.
@@ -137,167 +88,27 @@ struct Loop {
     const unsigned* end() const { return v.data() + n; }
 };
 
-/// Follows creases across cells (Kobbelt et al.'s edge flip): two fan triangles (c1, a, b) and
-/// (c2, b, a) of face-neighbouring cells, with feature vertices c1 and c2, become (c1, a, c2) and
-/// (c1, c2, b) when the field's normals at their centres agree better with the new pair. Both new
-/// triangles lie in the box of the two cells and meet its boundary only at a or b, so only the
-/// triangles of those two cells (and earlier flips into them) can cross them: each flip is tested
-/// against those with exact predicates and skipped if any pair intersects, or if c1-c2 is already an
-/// edge (the mesh would stop being manifold). Edges in a fixed order, each triangle flipped once.
-std::size_t flipCreases(const std::vector<glm::vec3>& P, std::vector<glm::uvec3>& tris,
-                        const std::vector<std::int64_t>& cellOf, unsigned firstApex, std::size_t cellCount,
-                        const IndexField& field) {
-    auto isApex = [&](unsigned v) { return v >= firstApex; };
-    auto edgeKey = [](unsigned a, unsigned b) { return (std::uint64_t(std::min(a, b)) << 32) | std::max(a, b); };
-    // Only fan triangles (apex first) matter: a candidate's two triangles are fans, every edge a flip
-    // adds or changes has an apex at one end, and a feature cell holds only its fan. Their edges as
-    // (key, triangle), sorted: an edge's triangles are neighbours, in mesh order.
-    std::vector<std::size_t> fans;
-    for (std::size_t t = 0; t < tris.size(); ++t)
-        if (isApex(tris[t].x)) fans.push_back(t);
-    std::vector<std::pair<std::uint64_t, std::size_t>> edgeTris(3 * fans.size());
-    tbb::parallel_for(std::size_t{0}, fans.size(), [&](std::size_t i) {
-        const glm::uvec3& t = tris[fans[i]];
-        for (int k = 0; k < 3; ++k) edgeTris[3 * i + std::size_t(k)] = {edgeKey(t[k], t[(k + 1) % 3]), fans[i]};
-    });
-    tbb::parallel_sort(edgeTris.begin(), edgeTris.end());
-    // Each cell's fan triangles (cellFans from cellStart[c] to cellStart[c + 1]), in mesh order.
-    std::vector<std::size_t> cellStart(cellCount + 1, 0), cellFans;
-    for (std::size_t t : fans)
-        if (cellOf[t] >= 0) ++cellStart[std::size_t(cellOf[t]) + 1];
-    for (std::size_t c = 0; c < cellCount; ++c) cellStart[c + 1] += cellStart[c];
-    cellFans.resize(cellStart.back());
-    {
-        std::vector<std::size_t> next(cellStart.begin(), cellStart.end() - 1);
-        for (std::size_t t : fans)
-            if (cellOf[t] >= 0) cellFans[next[std::size_t(cellOf[t])]++] = t;
-    }
-    // Candidates, in key order: an edge between two fan triangles (the first and the last of its
-    // triangles) whose apexes are the feature vertices of two cells.
-    struct Candidate {
-        std::size_t t1, t2;
-    };
-    std::vector<Candidate> candidates;
-    for (std::size_t i = 0; i < edgeTris.size();) {
-        std::size_t j = i + 1;
-        while (j < edgeTris.size() && edgeTris[j].first == edgeTris[i].first) ++j;
-        const std::uint64_t key = edgeTris[i].first;
-        const std::size_t t1 = edgeTris[i].second, t2 = edgeTris[j - 1].second;
-        if (j - i >= 2 && tris[t1].x != tris[t2].x && !isApex(unsigned(key >> 32)) &&
-            !isApex(unsigned(key & 0xffffffffu)))
-            candidates.push_back({t1, t2});
-        i = j;
-    }
-    auto unit = [](const glm::dvec3& v) {
-        const double l = glm::length(v);
-        return l > 0 ? v / l : glm::dvec3(0.0);
-    };
-    auto normalOf = [&](const glm::uvec3& t) {
-        return glm::cross(glm::dvec3(P[t.y]) - glm::dvec3(P[t.x]), glm::dvec3(P[t.z]) - glm::dvec3(P[t.x]));
-    };
-    // Each candidate's turn: its pair t1 = (c1, a, b), t2 = (c2, b, a) and the new pair n1 = (c1, a, c2),
-    // n2 = (c1, c2, b), kept if both new triangles face the old pair's way, with their fits (1 - cos of the
-    // angle between a triangle's normal and the field's at its centre, summed over the pair), in batches of
-    // neighbouring candidates. A candidate's two triangles are still its own when its turn comes (a flip
-    // changes only its own pair), so all of this can be found before any flip.
-    struct Turn {
-        bool ok = false;
-        std::size_t i1 = 0, i2 = 0;
-        std::array<glm::uvec3, 4> tri;  // t1, t2, n1, n2
-        double before = 0, after = 0;
-    };
-    std::vector<Turn> turns(candidates.size());
-    tbb::parallel_for(std::size_t{0}, batchCount(candidates.size()), [&](std::size_t batch) {
-        const std::size_t begin = batch * kBatch, end = std::min(candidates.size(), begin + kBatch);
-        std::vector<glm::vec3> pts;
-        Bounds box;
-        for (std::size_t c = begin; c < end; ++c) {
-            Turn& u = turns[c];
-            u.i1 = candidates[c].t1;
-            u.i2 = candidates[c].t2;
-            const glm::uvec3 t1 = tris[u.i1], t2 = tris[u.i2];
-            if (!(t2.y == t1.z && t2.z == t1.y)) continue;
-            u.tri = {t1, t2, glm::uvec3(t1.x, t1.y, t2.x), glm::uvec3(t1.x, t2.x, t1.z)};
-            const glm::dvec3 old = unit(normalOf(t1) + normalOf(t2));
-            if (!(glm::dot(unit(normalOf(u.tri[2])), old) > 0.2 && glm::dot(unit(normalOf(u.tri[3])), old) > 0.2))
-                continue;
-            u.ok = true;
-            for (const glm::uvec3& t : u.tri) {
-                const glm::vec3 centre = (P[t.x] + P[t.y] + P[t.z]) / 3.f;
-                box.add(centre);
-                pts.push_back(centre);
-            }
-        }
-        if (pts.empty()) return;
-        std::vector<glm::vec3> normals;
-        gradientsAt(box.of(field), pts, normals);
-        const glm::vec3* g = normals.data();
-        for (std::size_t c = begin; c < end; ++c) {
-            Turn& u = turns[c];
-            if (!u.ok) continue;
-            double misfit[4];
-            for (int k = 0; k < 4; ++k, ++g)
-                misfit[k] = 1.0 - glm::dot(unit(normalOf(u.tri[std::size_t(k)])), unit(glm::dvec3(*g)));
-            u.before = misfit[0] + misfit[1];
-            u.after = misfit[2] + misfit[3];
-        }
-    });
-    std::vector<char> flipped(tris.size(), 0);
-    std::size_t flips = 0;
-    // Apex-to-apex edges, which only flips make (a fan's edges join its apex to its loop, or two loop
-    // vertices), and the flipped triangles that reach into a cell beside its own fan.
-    std::unordered_set<std::uint64_t> apexEdges;
-    std::unordered_map<std::size_t, std::vector<std::size_t>> reaching;
-    for (std::size_t c = 0; c < candidates.size(); ++c) {
-        const Turn& u = turns[c];
-        const std::size_t i1 = u.i1, i2 = u.i2;
-        if (!u.ok || flipped[i1] || flipped[i2] || !(u.after < u.before - 1e-4)) continue;
-        const glm::uvec3 &n1 = u.tri[2], &n2 = u.tri[3];
-        const unsigned c1 = n1.x, c2 = n1.z;
-        if (apexEdges.count(edgeKey(c1, c2))) continue;  // the mesh would stop being manifold
-        // Exact tests against everything in the two cells (and earlier flips into them).
-        auto against = [&](const glm::uvec3& nt) {
-            const std::array<glm::vec3, 3> pn{P[nt.x], P[nt.y], P[nt.z]};
-            auto crosses = [&](std::size_t o) {
-                if (o == i1 || o == i2) return false;
-                const glm::uvec3& ot = tris[o];
-                return mesh::trianglesIntersect(pn, {nt.x, nt.y, nt.z}, {P[ot.x], P[ot.y], P[ot.z]},
-                                                {ot.x, ot.y, ot.z});
-            };
-            for (std::int64_t cell : {cellOf[i1], cellOf[i2]}) {
-                if (cell < 0) return true;
-                const std::size_t ce = std::size_t(cell);
-                for (std::size_t k = cellStart[ce]; k < cellStart[ce + 1]; ++k)
-                    if (crosses(cellFans[k])) return true;
-                const auto more = reaching.find(ce);
-                if (more != reaching.end())
-                    for (std::size_t o : more->second)
-                        if (crosses(o)) return true;
-            }
-            return false;
-        };
-        const bool clash = against(n1) || against(n2) ||
-                           mesh::trianglesIntersect({P[n1.x], P[n1.y], P[n1.z]}, {n1.x, n1.y, n1.z},
-                                                    {P[n2.x], P[n2.y], P[n2.z]}, {n2.x, n2.y, n2.z});
-        if (clash) continue;
-        tris[i1] = n1;
-        tris[i2] = n2;
-        flipped[i1] = flipped[i2] = 1;
-        ++flips;
-        apexEdges.insert(edgeKey(c1, c2));
-        // Each new triangle now reaches into both cells.
-        for (std::int64_t cell : {cellOf[i1], cellOf[i2]}) {
-            const std::size_t ce = std::size_t(cell);
-            const auto own = cellFans.begin() + std::ptrdiff_t(cellStart[ce]),
-                       ownEnd = cellFans.begin() + std::ptrdiff_t(cellStart[ce + 1]);
-            for (std::size_t t : {i1, i2}) {
-                if (std::find(own, ownEnd, t) != ownEnd) continue;
-                std::vector<std::size_t>& v = reaching[ce];
-                if (std::find(v.begin(), v.end(), t) == v.end()) v.push_back(t);
-            }
-        }
-    }
-    return flips;
+/// A patch's feature point may lie this many cells beyond its own cell along each axis (docs/marching-cubes.md).
+constexpr int kReachCells = 4;
+/// ... and only when it lies further than this (voxels) from its nearest point in the cell: nearer, the
+/// point brought in is as good, and its fan can still be flipped along a crease.
+constexpr double kReachBeyond = 0.05;
+
+/// A patch whose feature point lies beyond its cell, in empty cells: the box of cells [lo, hi] from its own
+/// cell to the point's, and the apex in it.
+struct Reach {
+    glm::ivec3 own{0}, lo{0}, hi{0};
+    glm::vec3 apex{0.f};
+    bool wanted = false;  // the box is empty, the field agrees and the fan from the apex is a graph
+};
+
+/// Calls f on each cell of the reach's box but its own.
+template <class F>
+void forEachCell(const Reach& r, F&& f) {
+    for (int x = r.lo.x; x <= r.hi.x; ++x)
+        for (int y = r.lo.y; y <= r.hi.y; ++y)
+            for (int z = r.lo.z; z <= r.hi.z; ++z)
+                if (glm::ivec3(x, y, z) != r.own) f(glm::ivec3(x, y, z));
 }
 
 }  // namespace
@@ -483,6 +294,47 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
         return std::span<const unsigned>(loops.data() + cellStart[ci] + 2 * ci, trianglesOf(ci).size() + 2);
     };
     std::vector<glm::vec3> apex(cellCount);
+    // A patch whose point lies beyond its cell: the box of cells from its own to the point's, and where in
+    // it the apex would go.
+    std::vector<Reach> reaches(cellCount);
+    auto hasTriangles = [&](const glm::ivec3& q) {
+        const std::uint64_t k = key(q);
+        return std::binary_search(cellKey.begin(), cellKey.end(), k) ||
+               std::binary_search(ambiguous.begin(), ambiguous.end(), k);
+    };
+    auto reachable = [&](const glm::ivec3& own, const glm::dvec3& target, const glm::dvec3& outward,
+                         const glm::dvec3& mass, Reach& r) {
+        if (!(std::isfinite(target.x) && std::isfinite(target.y) && std::isfinite(target.z))) return false;
+        const glm::dvec3 t = glm::floor(target);
+        if (glm::any(glm::greaterThan(glm::abs(t - glm::dvec3(own)), glm::dvec3(kReachCells)))) return false;
+        r.own = own;
+        r.lo = glm::min(own, glm::ivec3(t));
+        r.hi = glm::max(own, glm::ivec3(t));
+        bool empty = true;
+        forEachCell(r, [&](const glm::ivec3& q) { empty = empty && !hasTriangles(q); });
+        if (!empty) return false;
+        const glm::dvec3 a =
+            glm::clamp(target, glm::dvec3(r.lo) + double(kMargin), glm::dvec3(r.hi + 1) - double(kMargin));
+        // The field must agree: the apex on its surface (within 0.1 voxel), the way from the patch to it
+        // inside the solid for a point outward of the patch (a tip), outside for one inward (a notch).
+        std::array<glm::vec3, 4> q{glm::vec3(a)};
+        Bounds box;
+        box.add(q[0]);
+        box.add(glm::vec3(mass));
+        for (int k = 1; k < 4; ++k) q[std::size_t(k)] = glm::vec3(mass + (a - mass) * (0.25 * k));
+        const IndexValues there = box.of(field);
+        std::array<float, 4> f;
+        there(q, f);
+        std::vector<glm::vec3> g;
+        gradientsAt(there, std::span<const glm::vec3>(q.data(), 1), g);
+        const double len = glm::length(glm::dvec3(g[0]));
+        if (!(len > 0) || !(std::abs(double(f[0])) / len <= 0.1)) return false;
+        const float side = glm::dot(a - mass, outward) > 0 ? -1.f : 1.f;
+        for (int k = 1; k < 4; ++k)
+            if (!(f[std::size_t(k)] * side > 0.f)) return false;
+        r.apex = glm::vec3(a);
+        return true;
+    };
     std::vector<char> result(cellCount, 0);  // 1 feature vertex, 2 flat, 3 kept, 4 several patches
     tbb::parallel_for(std::size_t{0}, cellCount, [&](std::size_t ci) {
         const std::span<const std::size_t> tris = trianglesOf(ci);
@@ -539,6 +391,8 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
         mass /= double(loop.size());
         glm::dmat3 A(0.0);
         glm::dvec3 b(0.0), normalSum(0.0);  // normalSum: the Hermite normals' sum, a second fold-test direction
+        std::array<glm::dvec3, 3 * kMaxTriangles + 1> unitNormals;
+        std::size_t normalCount = 0;
         for (unsigned v : loop) {
             glm::dvec3 n(gradient[v]);
             const double len = glm::length(n);
@@ -547,13 +401,30 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
             A += glm::outerProduct(n, n);
             b += n * glm::dot(n, glm::dvec3(P[v]) - mass);
             normalSum += n;
+            unitNormals[normalCount++] = n;
         }
+        // Normals more than 134 degrees apart in one cell: a thin wedge (two faces meeting at under 46
+        // degrees), which the cutoff below would take for one flat face (their quadric's two eigenvalues are
+        // 1 -+ cos of the angle). A smooth surface turns that far within a cell only where its radius is
+        // under a voxel.
+        bool opposed = false;
+        for (std::size_t i = 0; i < normalCount && !opposed; ++i)
+            for (std::size_t j = i + 1; j < normalCount && !opposed; ++j)
+                opposed = glm::dot(unitNormals[i], unitNormals[j]) < -0.7;
         glm::dvec3 lambda;
         glm::dmat3 V;
         int rank = 0;
         glm::dvec3 x(0.0);
-        // An eigenvector is kept (a normal direction of the data) when its eigenvalue passes the rank cutoff.
-        auto kept = [&](int k) { return lambda[k] > 0.1 * std::max({lambda.x, lambda.y, lambda.z}); };
+        // An eigenvector is kept (a normal direction of the data) when its eigenvalue passes the rank cutoff;
+        // for a thin wedge, its second direction down to 1/1000 of the largest (wedges down to 3.6 degrees).
+        auto kept = [&](int k) {
+            const double top = std::max({lambda.x, lambda.y, lambda.z});
+            if (lambda[k] > 0.1 * top) return true;
+            if (!opposed || !(lambda[k] > 1e-3 * top)) return false;
+            int above = 0;  // the second largest only
+            for (int j = 0; j < 3; ++j) above += j != k && lambda[j] > lambda[k];
+            return above == 1;
+        };
         auto solve = [&] {
             jacobi(A, lambda, V);
             rank = 0;
@@ -592,6 +463,7 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
             solve();
         }
         glm::dvec3 c = mass + x;
+        const glm::dvec3 target = c;  // the QEF's own point, before it is brought into the cell
         // The cell's lower corner: the smallest corner of its crossings' edges.
         glm::dvec3 cellLo = glm::dvec3(1e30);
         for (unsigned v : loop) cellLo = glm::min(cellLo, glm::dvec3(edges[v].corner));
@@ -600,7 +472,9 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
             return q.x >= boxLo.x && q.x <= boxHi.x && q.y >= boxLo.y && q.y <= boxHi.y && q.z >= boxLo.z &&
                    q.z <= boxHi.z;
         };
+        bool reach = false;  // the point lies outside the cell and the crease does not cross it
         if (!inBox(c)) {
+            reach = true;
             // The crease (rank 2: the line through c along the dropped eigenvector) may cross the cell
             // away from c: take its point in the cell nearest c, which has the same error. Otherwise the
             // nearest point of the cell (the cell's best feature point is on its boundary).
@@ -627,6 +501,7 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
                 }
             }
             if (!onCrease) c = glm::clamp(c, boxLo, boxHi);
+            reach = !onCrease;
         }
         // No fold: the fan is a graph over a plane. Every fan triangle turns the patch's way in the plane
         // across a direction D, and the loop goes once around the apex there. D is the patch's normal, else
@@ -642,14 +517,15 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
             result[ci] = 3;
             return;
         }
-        auto fanIsGraphOver = [&](glm::dvec3 D) {
+        auto fanIsGraphOver = [&](glm::dvec3 D, const glm::dvec3& from) {
             D = glm::normalize(D);
             const glm::dvec3 U = glm::normalize(std::abs(D.x) < 0.9 ? glm::cross(D, glm::dvec3(1, 0, 0))
                                                                     : glm::cross(D, glm::dvec3(0, 1, 0)));
             const glm::dvec3 W = glm::cross(D, U);
             double turn = 0;
             for (std::size_t k = 0; k < loop.size(); ++k) {
-                const glm::dvec3 a = glm::dvec3(P[loop[k]]) - c, d = glm::dvec3(P[loop[(k + 1) % loop.size()]]) - c;
+                const glm::dvec3 a = glm::dvec3(P[loop[k]]) - from,
+                                 d = glm::dvec3(P[loop[(k + 1) % loop.size()]]) - from;
                 const glm::dvec2 a2(glm::dot(a, U), glm::dot(a, W)), d2(glm::dot(d, U), glm::dot(d, W));
                 const double cr = a2.x * d2.y - a2.y * d2.x;
                 if (!(cr > 1e-9 * (glm::dot(a2, a2) + glm::dot(d2, d2)))) return false;
@@ -657,23 +533,50 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
             }
             return std::abs(turn - 2.0 * M_PI) < 1e-3;
         };
-        bool graph = fanIsGraphOver(N) || (glm::length(normalSum) > 0 && fanIsGraphOver(normalSum));
-        for (int k = 0; k < 3 && !graph; ++k)
-            if (kept(k)) graph = fanIsGraphOver(glm::dot(V[k], N) >= 0 ? V[k] : -V[k]);
-        if (!graph) {
-            result[ci] = 3;
-            return;
+        auto graphFrom = [&](const glm::dvec3& from) {
+            bool graph = fanIsGraphOver(N, from) || (glm::length(normalSum) > 0 && fanIsGraphOver(normalSum, from));
+            for (int k = 0; k < 3 && !graph; ++k)
+                if (kept(k)) graph = fanIsGraphOver(glm::dot(V[k], N) >= 0 ? V[k] : -V[k], from);
+            return graph;
+        };
+        const bool graph = graphFrom(c);
+        if (graph || reach) std::copy(loop.begin(), loop.end(), loops.begin() + std::ptrdiff_t(cellStart[ci] + 2 * ci));
+        // Only for a point well beyond the cell: one just past a face (an edge on a grid plane) is as good
+        // brought in, where its fan can still be flipped along the crease.
+        if (reach && glm::length(target - c) > kReachBeyond) {
+            Reach& r = reaches[ci];
+            const glm::ivec3 own(cellLo);
+            if (reachable(own, target, glm::normalize(N), mass, r) && graphFrom(glm::dvec3(r.apex))) r.wanted = true;
         }
-        std::copy(loop.begin(), loop.end(), loops.begin() + std::ptrdiff_t(cellStart[ci] + 2 * ci));
         apex[ci] = glm::vec3(c);
-        result[ci] = 1;
+        result[ci] = graph ? 1 : 3;
     });
+
+    // 3b. Reaching into empty cells, in key order: a feature point beyond its cell (a cone's tip or a thin
+    // wedge's edge that no grid edge crosses) is taken where the box of cells from the patch's cell to the
+    // point holds no triangle and no other patch has taken any of those cells.
+    std::vector<char> reached(cellCount, 0);
+    {
+        std::unordered_set<std::uint64_t> taken;
+        for (std::size_t ci = 0; ci < cellCount; ++ci) {
+            const Reach& r = reaches[ci];
+            if (!r.wanted) continue;
+            bool free = true;
+            forEachCell(r, [&](const glm::ivec3& q) { free = free && !taken.count(key(q)); });
+            if (!free) continue;
+            forEachCell(r, [&](const glm::ivec3& q) { taken.insert(key(q)); });
+            apex[ci] = r.apex;
+            result[ci] = 1;
+            reached[ci] = 1;
+        }
+    }
 
     // 4. The mesh again, in its order: a sharpened patch's fan where its first triangle was.
     std::vector<std::int64_t> patchOfTriangle(mesh.triangles.size(), -1);
     for (std::size_t ci = 0; ci < cellCount; ++ci) {
         stats.patches += result[ci] != 4;
         stats.features += result[ci] == 1;
+        stats.reached += reached[ci];
         stats.flat += result[ci] == 2;
         stats.kept += result[ci] == 3;
         stats.sharedCells += result[ci] == 4;
@@ -689,7 +592,7 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
     cellOfOut.reserve(out.capacity());
     P.reserve(P.size() + stats.features);
     const auto firstApex = static_cast<unsigned>(P.size());
-    std::vector<char> emitted(cellCount, 0);
+    std::vector<char> emitted(cellCount, 0), reachingApex;
     const bool normals = mesh.normals.size() == nv, colors = mesh.colors.size() == nv;
     for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
         const std::int64_t ci = patchOfTriangle[t];
@@ -702,6 +605,7 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
         emitted[ci] = 1;
         const auto centre = static_cast<unsigned>(P.size());
         P.push_back(apex[ci]);
+        reachingApex.push_back(reached[ci]);
         const std::span<const unsigned> loop = loopOf(std::size_t(ci));
         if (normals) {
             glm::vec3 n(0.f);
@@ -714,7 +618,7 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
             cellOfOut.push_back(ci);
         }
     }
-    stats.flips = flipCreases(P, out, cellOfOut, firstApex, cellCount, field);
+    stats.flips = flipCreases(P, out, cellOfOut, firstApex, cellCount, field, reachingApex);
     mesh.triangles = std::move(out);
     if (statsOut) *statsOut = stats;
 }

@@ -18,6 +18,7 @@ namespace isoforge::volume {
 struct SharpenStats {
     std::size_t patches = 0;          ///< single-patch cells looked at
     std::size_t features = 0;         ///< patches given a feature vertex (rank 2: edge, rank 3: corner)
+    std::size_t reached = 0;          ///< of those, vertices beyond their cell, in empty cells (a tip, a thin edge)
     std::size_t flat = 0;             ///< left as they were: one normal direction, nothing to sharpen
     std::size_t kept = 0;             ///< left as they were: the feature vertex would leave the cell or fold the fan
     std::size_t sharedCells = 0;      ///< cells with two or more patches (left as they were)
