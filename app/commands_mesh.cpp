@@ -24,7 +24,10 @@ void addCheckCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
     auto a = std::make_shared<Args>();
     auto* cmd = app.add_subcommand(
         "check", "Report whether meshes are watertight, manifold and oriented; genus, components, area, volume");
-    cmd->add_option("meshes", a->files, "Mesh files (.ply .obj .stl, from any tool)")->required();
+    cmd->add_option("meshes", a->files,
+                    "Mesh files (.ply .obj .stl, from any tool); with per-vertex normals, vertices that share a "
+                    "position (split for crisp creases) count as one")
+        ->required();
     cmd->add_flag("--strict", a->strict, "Exit with status 1 unless every mesh is a valid closed, oriented 2-manifold");
     cmd->add_flag("--repair", a->repair,
                   "Drop degenerate and duplicate triangles, orient consistently and outward (cavities inward); "
@@ -48,7 +51,9 @@ void addCheckCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                     if (!g.quiet) std::cout << f << ": repair\n" << r.toString();
                     mesh::writeMesh(a->output, m);
                 }
-                mesh::MeshReport r = mesh::check(m, {.selfIntersections = a->selfIntersections});
+                // With per-vertex normals, vertices may be split for crisp creases: checked by position.
+                mesh::MeshReport r =
+                    mesh::check(m, {.selfIntersections = a->selfIntersections, .weldByPosition = !m.normals.empty()});
                 if (!g.quiet || !a->repair) std::cout << (a->repair ? a->output : f) << "\n" << r.toString();
                 allValid = allValid && r.isValidClosedSurface();
             }

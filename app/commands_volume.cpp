@@ -15,6 +15,7 @@
 #include "implicit/quadric.h"
 #include "implicit/shape_spec.h"
 #include "mesh/check.h"
+#include "mesh/crease_normals.h"
 #include "mesh/io.h"
 #include "mesh/stream_writer.h"
 #include "render/image.h"
@@ -269,7 +270,7 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
         int smooth = 0;
         bool normals = false, indexSpace = false, ascii = false, stats = false, labels = false, split = false,
              sharp = false, noSharp = false, readWhole = false;
-        double maxError = 0;
+        double maxError = 0, creaseAngle = 30;
         FieldInput field;
         VolumeInput volume;
     };
@@ -306,6 +307,11 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                     "Which side is solid: below (level sets), above (fog, density, CT) or auto (by grid class)")
         ->check(CLI::IsMember({"auto", "below", "above"}));
     cmd->add_flag("--normals", a->normals, "Write per-vertex normals from the grid gradient");
+    cmd->add_option("--crease-angle", a->creaseAngle,
+                    "With --normals and feature vertices: where faces meet at more than this many degrees, a vertex "
+                    "is written once per side with that side's normal, so renders show crisp creases (default 30; "
+                    "180: one normal per vertex)")
+        ->check(CLI::Range(0.0, 180.0));
     auto* sharpFlag =
         cmd->add_flag("--sharp", a->sharp,
                       "Feature vertices on sharp edges and corners (Hermite data from the field, or the grid's "
@@ -443,6 +449,8 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                           << "' (values " << (volume::insideIsBelow(*grid, opt.inside) ? "below" : "above")
                           << " the iso are inside); writing an empty mesh\n";
             const auto t2 = Clock::now();
+            // Feature vertices make creases: one normal per side there (the mesh stays closed by position).
+            const std::size_t creaseCopies = sharp && a->normals ? mesh::splitNormalsAtCreases(m, a->creaseAngle) : 0;
             mesh::writeMesh(a->output, m, {a->ascii});
             const double writeSeconds = std::chrono::duration<double>(Clock::now() - t2).count();
             if (!g.quiet) {
@@ -460,6 +468,11 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                     withCommas(sharpStats.flips).c_str(), withCommas(sharpStats.flat).c_str(),
                     withCommas(sharpStats.kept).c_str(), withCommas(sharpStats.sharedCells).c_str(),
                     withCommas(sharpStats.refinedVertices).c_str());
+            if (creaseCopies > 0 && !g.quiet)
+                std::printf(
+                    "normals: %s copies of vertices on creases (faces more than %g degrees apart), one per "
+                    "side\n",
+                    withCommas(creaseCopies).c_str(), a->creaseAngle);
             if (a->maxError > 0 && !g.quiet)
                 std::printf(
                     "simplified within %g: %s -> %s triangles (%s collapses; refused: %s topology, %s turned "
@@ -474,7 +487,9 @@ void addMeshCommand(CLI::App& app, const GlobalOptions& g, Commands& c) {
                             writeSeconds);
                 std::printf("leaves %s, blocks visited %s, blocks with surface %s\n", withCommas(stats.leaves).c_str(),
                             withCommas(stats.blocks).c_str(), withCommas(stats.surfaceBlocks).c_str());
-                std::cout << mesh::check(m, {.selfIntersections = sharp || a->maxError > 0}).toString();
+                std::cout << mesh::check(
+                                 m, {.selfIntersections = sharp || a->maxError > 0, .weldByPosition = creaseCopies > 0})
+                                 .toString();
             }
             return 0;
         };

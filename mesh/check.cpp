@@ -50,6 +50,15 @@ std::optional<long long> MeshReport::genus() const {
 }
 
 MeshReport check(const TriMesh& mesh, const CheckOptions& options) {
+    if (options.weldByPosition) {
+        TriMesh welded = mesh;
+        const std::size_t n = weldIdenticalPositions(welded);
+        CheckOptions o = options;
+        o.weldByPosition = false;
+        MeshReport r = check(welded, o);
+        r.weldedVertices = n;
+        return r;
+    }
     MeshReport r;
     const std::size_t nv = mesh.positions.size();
     r.vertices = nv;
@@ -181,6 +190,7 @@ std::string MeshReport::toString() const {
     auto yesNo = [](bool b) { return b ? "yes" : "NO"; };
     s << "vertices        " << vertices;
     if (usedVertices != vertices) s << " (" << usedVertices << " used)";
+    if (weldedVertices) s << " (and " << weldedVertices << " copies sharing a position, counted as one)";
     s << "\ntriangles       " << triangles << "\nedges           " << edges;
     s << "\nwatertight      " << yesNo(isWatertight());
     if (boundaryEdges) s << "  (" << boundaryEdges << " boundary edges)";

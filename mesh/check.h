@@ -30,6 +30,7 @@ struct MeshReport {
     long long eulerCharacteristic = 0;   ///< V - E + F over used vertices
     double area = 0.0;
     double volume = 0.0;                    ///< signed; meaningful when watertight
+    std::size_t weldedVertices = 0;         ///< with CheckOptions::weldByPosition: copies counted as one
     bool selfIntersectionsChecked = false;  ///< asked for (CheckOptions); then selfIntersections holds the count
     SelfIntersections selfIntersections;
 
@@ -55,6 +56,9 @@ struct MeshReport {
 
 struct CheckOptions {
     bool selfIntersections = false;  ///< also count intersecting triangle pairs (mesh/self_intersections.h)
+    /// Vertices with bit-identical positions count as one (a copy of the mesh welded first): a mesh whose
+    /// vertices are split for per-side normals at creases (mesh/crease_normals.h) is closed by position.
+    bool weldByPosition = false;
 };
 
 /// Checks `mesh`. O(T log T) time; never modifies the mesh; never throws on bad indices

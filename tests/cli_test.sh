@@ -301,6 +301,16 @@ cp "$tmp/holed.csg" "$tmp/holed.isf"
 expect_exit 0 "mesh (.isf: plain by default)" "$bin" mesh "$tmp/holed.isf" --resolution 48 -o "$tmp/holed_isf.ply"
 cmp -s "$tmp/holed_plain.ply" "$tmp/holed_isf.ply" && ok || bad "an .isf scene is not meshed plain by default"
 expect_exit 2 "mesh --sharp --no-sharp" "$bin" mesh "$tmp/holed.csg" --sharp --no-sharp -o "$tmp/x.ply"
+# --normals with feature vertices: one normal per side of a crease (copies of the crease's vertices), closed
+# by position, which check counts; --crease-angle 180 keeps one normal per vertex.
+expect_exit 0 "mesh --sharp --normals" "$bin" mesh "$tmp/holed.csg" --normals --resolution 48 -o "$tmp/holed_n.ply"
+grep -q "copies of vertices on creases" "$tmp/out" && ok || bad "--normals: no crease copies in the summary"
+expect_exit 0 "check --strict (crease normals)" "$bin" check --strict --self-intersections "$tmp/holed_n.ply"
+grep -q "copies sharing a position, counted as one" "$tmp/out" && ok || bad "check: crease copies not counted as one"
+expect_exit 0 "mesh --crease-angle 180" "$bin" mesh "$tmp/holed.csg" --normals --crease-angle 180 --resolution 48 \
+  -o "$tmp/holed_n180.ply"
+grep -q "copies of vertices on creases" "$tmp/out" && bad "--crease-angle 180: vertices still split" || ok
+expect_exit 2 "mesh --crease-angle 200" "$bin" mesh "$tmp/holed.csg" --normals --crease-angle 200 -o "$tmp/x.ply"
 printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nv .2 .2 -.5\nv .2 .2 .5\nv .9 .9 .2\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\nf 5 6 7\n' >"$tmp/pierced.obj"
 expect_exit 0 "check --self-intersections (pierced)" "$bin" check --self-intersections "$tmp/pierced.obj"
 grep -q "self-intersect  YES" "$tmp/out" && ok || bad "check --self-intersections: the piercing triangle not found"
