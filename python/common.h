@@ -51,9 +51,10 @@ struct PyGrid {
 PyGrid sampleField(const PyField& f, float voxel, float halfWidth, const py::object& progress);
 
 /// The mesh of a grid: iso-surface, then sharp features, simplification and scene colours as asked
-/// (volume::meshSurface, the command line's pipeline).
+/// (volume::meshSurface, the command line's pipeline); with normals and sharp features, a vertex on a crease
+/// once per side (mesh/crease_normals.h, faces more than creaseAngle degrees apart), as `isoforge mesh` writes it.
 mesh::TriMesh meshGrid(const PyGrid& g, float iso, const std::string& inside, bool normals, bool sharp, double maxError,
-                       const py::object& progress);
+                       const py::object& progress, double creaseAngle = 30.0);
 
 /// Thrown from Progress calls on worker threads once the user pressed Ctrl-C (or the callback raised).
 struct Interrupted : std::exception {

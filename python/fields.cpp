@@ -181,13 +181,13 @@ void bindFields(py::module_& m) {
         .def(
             "mesh",
             [](const PyField& f, const py::object& voxel, const py::object& resolution, bool sharp, double maxError,
-               bool normals, float halfWidth, const py::object& progress) {
+               bool normals, float halfWidth, const py::object& progress, double creaseAngle) {
                 const PyGrid g = sampleField(f, voxelFor(f, voxel, resolution), halfWidth, progress);
-                return meshGrid(g, 0.f, "auto", normals, sharp, maxError, progress);
+                return meshGrid(g, 0.f, "auto", normals, sharp, maxError, progress, creaseAngle);
             },
             py::kw_only(), py::arg("voxel") = py::none(), py::arg("resolution") = py::none(), py::arg("sharp") = false,
             py::arg("max_error") = 0.0, py::arg("normals") = false, py::arg("half_width") = 3.f,
-            py::arg("progress") = py::none(),
+            py::arg("progress") = py::none(), py::arg("crease_angle") = 30.0,
             "The closed, oriented mesh of the surface (iso.Mesh), as `isoforge mesh` makes it: sharp=True for\n"
             "feature vertices on edges and corners, max_error > 0 to simplify within that distance")
         .def("__repr__", [](const PyField& f) { return "<isoforge.Field " + f.field->describe() + ">"; });

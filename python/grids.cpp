@@ -2,6 +2,7 @@
 #include <openvdb/tools/Dense.h>
 
 #include "core/error.h"
+#include "mesh/crease_normals.h"
 #include "python/common.h"
 #include "volume/dense_grid.h"
 #include "volume/sample.h"
@@ -26,7 +27,8 @@ py::tuple coords(const openvdb::Coord& c) {
 }  // namespace
 
 mesh::TriMesh meshGrid(const PyGrid& g, float iso, const std::string& inside, bool normals, bool sharp, double maxError,
-                       const py::object& progress) {
+                       const py::object& progress, double creaseAngle) {
+    if (!(creaseAngle >= 0 && creaseAngle <= 180)) throw py::value_error("crease_angle must be in [0, 180]");
     volume::SurfaceOptions o;
     o.isovalue = iso;
     o.inside = insideSide(inside);
@@ -36,7 +38,9 @@ mesh::TriMesh meshGrid(const PyGrid& g, float iso, const std::string& inside, bo
     o.maxError = maxError;
     return runLong(progress, [&](Progress* p) {
         o.progress = p;
-        return volume::meshSurface(*g.grid, g.field, o);
+        mesh::TriMesh m = volume::meshSurface(*g.grid, g.field, o);
+        if (sharp && normals) mesh::splitNormalsAtCreases(m, creaseAngle);
+        return m;
     });
 }
 
@@ -91,9 +95,12 @@ void bindGrids(py::module_& m) {
         .def(
             "mesh",
             [](const PyGrid& g, float iso, const std::string& inside, bool normals, bool sharp, double maxError,
-               const py::object& progress) { return meshGrid(g, iso, inside, normals, sharp, maxError, progress); },
+               const py::object& progress, double creaseAngle) {
+                return meshGrid(g, iso, inside, normals, sharp, maxError, progress, creaseAngle);
+            },
             py::kw_only(), py::arg("iso") = 0.f, py::arg("inside") = "auto", py::arg("normals") = false,
             py::arg("sharp") = false, py::arg("max_error") = 0.0, py::arg("progress") = py::none(),
+            py::arg("crease_angle") = 30.0,
             "The iso-surface (iso.Mesh), closed and oriented outward: inside 'below' the iso-value (level sets),\n"
             "'above' (fog, density, CT) or 'auto' (by the grid's class)")
         .def(

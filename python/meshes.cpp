@@ -49,6 +49,7 @@ py::dict reportDict(const mesh::MeshReport& r) {
     d["area"] = r.area;
     d["volume"] = r.volume;
     if (r.selfIntersectionsChecked) d["self_intersecting_pairs"] = r.selfIntersections.pairs;
+    d["welded_vertices"] = r.weldedVertices;
     return d;
 }
 
@@ -124,7 +125,8 @@ void bindMeshes(py::module_& m) {
                 mesh::MeshReport r;
                 {
                     py::gil_scoped_release release;
-                    r = mesh::check(t, {.selfIntersections = selfIntersections});
+                    // With normals, copies of a vertex split at a crease count as one (as `isoforge check`).
+                    r = mesh::check(t, {.selfIntersections = selfIntersections, .weldByPosition = !t.normals.empty()});
                 }
                 return reportDict(r);
             },

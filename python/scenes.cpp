@@ -89,14 +89,15 @@ void bindScenes(py::module_& m) {
         .def(
             "mesh",
             [](const PyScene& s, const py::object& voxel, const py::object& resolution, bool sharp, double maxError,
-               bool normals, float halfWidth, const py::object& progress) {
+               bool normals, float halfWidth, const py::object& progress, double creaseAngle) {
                 const PyField f = s.field();
                 const PyGrid g = sampleField(f, voxelFor(f, voxel, resolution), halfWidth, progress);
-                return meshGrid(g, 0.f, "auto", normals, sharp, maxError, progress);
+                return meshGrid(g, 0.f, "auto", normals, sharp, maxError, progress, creaseAngle);
             },
             py::kw_only(), py::arg("voxel") = py::none(), py::arg("resolution") = py::none(), py::arg("sharp") = false,
             py::arg("max_error") = 0.0, py::arg("normals") = false, py::arg("half_width") = 3.f,
-            py::arg("progress") = py::none(), "The scene's mesh, as `isoforge mesh scene.csg` makes it")
+            py::arg("progress") = py::none(), py::arg("crease_angle") = 30.0,
+            "The scene's mesh, as `isoforge mesh scene.csg` makes it")
         .def("__repr__", [](const PyScene& s) {
             return "<isoforge.Scene " + std::to_string(s.scene.primitives) + " primitives, " +
                    std::to_string(s.scene.warnings.size()) + " warnings>";

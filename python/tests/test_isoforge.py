@@ -28,12 +28,14 @@ def valid(mesh):
         (lambda: iso.shape("torus(R=1, r=0.3)").mesh(voxel=0.03), ["--shape", "torus(R=1, r=0.3)", "--voxel", "0.03"]),
         (lambda: iso.Scene.load("tests/data/openscad/hexnut.csg").mesh(resolution=48, sharp=True, max_error=0.02),
          ["tests/data/openscad/hexnut.csg", "--resolution", "48", "--sharp", "--max-error", "0.02"]),
+        (lambda: iso.Scene.load("tests/data/openscad/hexnut.csg").mesh(resolution=48, sharp=True, normals=True),
+         ["tests/data/openscad/hexnut.csg", "--resolution", "48", "--sharp", "--normals"]),
         (lambda: iso.Scene.load("examples/bracket.isf").mesh(resolution=80),
          ["examples/bracket.isf", "--resolution", "80"]),
         (lambda: iso.Grid.load("data/sphere.vdb").mesh(), ["data/sphere.vdb"]),
         (lambda: iso.vm("data/text.vm").mesh(resolution=64), ["data/text.vm", "--resolution", "64"]),
     ],
-    ids=["shape", "csg-sharp-simplified", "isf-colours", "vdb", "vm"],
+    ids=["shape", "csg-sharp-simplified", "csg-sharp-crease-normals", "isf-colours", "vdb", "vm"],
 )
 def test_meshes_are_the_command_lines_bytes(make, args, cli, root, tmp_path, monkeypatch):
     monkeypatch.chdir(root)
@@ -71,6 +73,18 @@ def test_operators_are_the_booleans():
     assert inside(a & b) == [False, True, False, False]
     assert inside(a - b) == [True, False, False, False]
     np.testing.assert_allclose(iso.sphere(2)(p), np.linalg.norm(p, axis=1) - 2, atol=1e-6)
+
+
+def test_sharp_meshes_with_normals_split_their_creases_and_stay_closed_by_position():
+    box = iso.box((2, 1, 0.5)).rotate(30, (1, 1, 0))
+    split = box.mesh(voxel=0.05, sharp=True, normals=True)
+    one = box.mesh(voxel=0.05, sharp=True, normals=True, crease_angle=180)
+    r = valid(split)
+    assert r["welded_vertices"] > 0 and len(split.vertices) == len(one.vertices) + r["welded_vertices"]
+    assert valid(one)["welded_vertices"] == 0
+    np.testing.assert_array_equal(split.triangles.shape, one.triangles.shape)
+    with pytest.raises(ValueError):
+        box.mesh(voxel=0.05, sharp=True, normals=True, crease_angle=200)
 
 
 def test_volumes_and_areas_converge_to_the_analytic_ones():
