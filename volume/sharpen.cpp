@@ -537,6 +537,12 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
             bool graph = fanIsGraphOver(N, from) || (glm::length(normalSum) > 0 && fanIsGraphOver(normalSum, from));
             for (int k = 0; k < 3 && !graph; ++k)
                 if (kept(k)) graph = fanIsGraphOver(glm::dot(V[k], N) >= 0 ? V[k] : -V[k], from);
+            // Last, the way from the crossings' mean to the point: seen along it the point lies over the
+            // mean, inside the loop where the loop is star-shaped around it (a corner cut off by one
+            // triangle whose corner lies on the cell's edge, where no normal of the data sees it inside).
+            const glm::dvec3 out = from - mass;
+            if (!graph && glm::length(out) > 0 && glm::dot(out, N) != 0)
+                graph = fanIsGraphOver(glm::dot(out, N) > 0 ? out : -out, from);
             return graph;
         };
         const bool graph = graphFrom(c);
