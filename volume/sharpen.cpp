@@ -472,9 +472,8 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
             return q.x >= boxLo.x && q.x <= boxHi.x && q.y >= boxLo.y && q.y <= boxHi.y && q.z >= boxLo.z &&
                    q.z <= boxHi.z;
         };
-        bool reach = false;  // the point lies outside the cell and the crease does not cross it
+        bool reach = false;  // the point lies well outside the cell and the crease does not cross it
         if (!inBox(c)) {
-            reach = true;
             // The crease (rank 2: the line through c along the dropped eigenvector) may cross the cell
             // away from c: take its point in the cell nearest c, which has the same error. Otherwise the
             // nearest point of the cell (the cell's best feature point is on its boundary).
@@ -501,7 +500,9 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
                 }
             }
             if (!onCrease) c = glm::clamp(c, boxLo, boxHi);
-            reach = !onCrease;
+            // Only a point well beyond the cell: one just past a face (an edge on a grid plane) is as good
+            // brought in, where its fan can still be flipped along the crease.
+            reach = !onCrease && glm::length(target - c) > kReachBeyond;
         }
         // No fold: the fan is a graph over a plane. Every fan triangle turns the patch's way in the plane
         // across a direction D, and the loop goes once around the apex there. D is the patch's normal, else
@@ -547,9 +548,7 @@ void sharpen(mesh::TriMesh& mesh, const IndexField& field, SharpenStats* statsOu
         };
         const bool graph = graphFrom(c);
         if (graph || reach) std::copy(loop.begin(), loop.end(), loops.begin() + std::ptrdiff_t(cellStart[ci] + 2 * ci));
-        // Only for a point well beyond the cell: one just past a face (an edge on a grid plane) is as good
-        // brought in, where its fan can still be flipped along the crease.
-        if (reach && glm::length(target - c) > kReachBeyond) {
+        if (reach) {
             Reach& r = reaches[ci];
             const glm::ivec3 own(cellLo);
             if (reachable(own, target, glm::normalize(N), mass, r) && graphFrom(glm::dvec3(r.apex))) r.wanted = true;
