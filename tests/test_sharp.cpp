@@ -236,6 +236,21 @@ TEST(Sharp, ReachingFansKeepEveryGuaranteeWhereverTheGridFalls) {
             }
     std::printf("%zu fans reached beyond their cells in %d meshes\n", reached, n);
     EXPECT_GT(reached, std::size_t(5 * n));  // the competition for cells is exercised
+    // The same bytes on 1, 2 and 3 threads (boxes are granted serially, in cell key order).
+    const std::string turned = "rotate([22, 31, 9]) " + shapes[0];
+    volume::SharpenStats one;
+    mesh::TriMesh reference;
+    {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+        reference = sharpMesh(turned, 0.071f, &one);
+    }
+    EXPECT_GT(one.reached, 0u);
+    for (int threads : {2, 3}) {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+        const mesh::TriMesh m = sharpMesh(turned, 0.071f);
+        EXPECT_EQ(m.positions, reference.positions) << threads << " threads";
+        EXPECT_EQ(m.triangles, reference.triangles) << threads << " threads";
+    }
 }
 
 TEST(Simplify, FewerTrianglesWithinTheBoundAndEveryGuarantee) {
